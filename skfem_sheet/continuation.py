@@ -1,0 +1,226 @@
+"""Load paths: adaptive load stepping in curvature and gravity (branch selection).
+
+In the bistable region the equilibrium reached depends on the load path
+(paper, "Finite-element simulations" and SI "Numerical Method"):
+
+``"curvature-first"``
+    ramp the clamp curvature at zero gravity, then gravity to 1: selects the
+    curvature-dominated (aloft) shape;
+``"gravity-first"``
+    ramp gravity at zero curvature, then the curvature: selects the
+    gravity-dominated (drooped) shape.
+
+Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps:
+every step is warm-started by a tangent predictor (one extra back-substitution
+with the last factorisation) and corrected by Newton; steps grow after easy
+corrections and are halved after failures.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .linalg import LinearSolverError
+from .newton import NewtonOptions, Stats, newton
+from .params import check_range
+
+__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
+
+PATHS = ("curvature-first", "gravity-first")
+
+
+@dataclass(frozen=True)
+class StepOptions:
+    """Adaptive load-step control.
+
+    Attributes
+    ----------
+    initial_step : float
+        First step, as a fraction of each phase.
+    min_step : float
+        Below this the path is declared failed.
+    max_step : float
+        Largest step fraction.
+    grow : float
+        Step growth factor after an easy step (``<= easy_iterations``).
+    easy_iterations : int
+        Number of Newton iterations considered easy (the step then grows).
+    intermediate_utol : float
+        Newton tolerance on the displacement correction at intermediate load
+        steps (units of a); only the final load is solved to the full
+        tolerance of ``NewtonOptions``.  Intermediate states only need to be
+        close enough to the branch to start the next step.
+    max_correction : float
+        A step whose first Newton correction moves a node further than this
+        (units of a) is rejected and cut: it guards against silently jumping
+        to another branch.
+    """
+
+    initial_step: float = 0.25
+    min_step: float = 1e-3
+    max_step: float = 1.0
+    grow: float = 2.0
+    easy_iterations: int = 2
+    max_correction: float = 0.25
+    intermediate_utol: float = 1e-3
+
+    def __post_init__(self):
+        check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
+        check_range("min_step", self.min_step, 0, self.initial_step, lo_open=True)
+        check_range("max_step", self.max_step, self.initial_step, 1)
+        check_range("grow", self.grow, 1, 10)
+        check_range("max_correction", self.max_correction, 0, None, lo_open=True)
+
+
+@dataclass
+class PathOutcome:
+    """What happened along a path (mutable while the path runs)."""
+
+    w: np.ndarray
+    converged: bool = False
+    reason: str = ""
+    kappa: float = 0.0
+    g: float = 0.0
+    steps: list = field(default_factory=list)  # (phase, lam, iterations) per accepted step
+    rejected_steps: int = 0
+    rejections: list = field(default_factory=list)  # (phase, lam tried, reason, iterations)
+
+
+def load_phases(path: str, kappa: float):
+    """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs."""
+    if path not in PATHS:
+        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+    curv = ("curvature", lambda lam, g=0.0: (lam * kappa, g))
+    grav = ("gravity", lambda lam, k=0.0: (k, lam))
+    if path == "curvature-first":
+        phases = [curv, ("gravity", lambda lam: (kappa, lam))]
+    else:
+        phases = [grav, ("curvature", lambda lam: (lam * kappa, 1.0))]
+    if kappa == 0.0:
+        phases = [p for p in phases if p[0] == "gravity"]
+    return phases
+
+
+def _load_rate(problem, phase, load, lam, eps=1e-6):
+    """d(kappa, g)/dlam by a difference (the loads are linear in lam)."""
+    k0, g0 = load(lam)
+    k1, g1 = load(lam + eps)
+    return (k1 - k0) / eps, (g1 - g0) / eps
+
+
+def _tangent_predictor(problem, w, dkappa, dg, kappa, solver, stats):
+    """dw/dlam from ``K_ff dw_f = -(dg f_g)_f - K_fd dw_d`` with the last factorisation."""
+    free, fixed = problem.free, problem.fixed
+    dw = np.zeros(problem.ndof)
+    dw[fixed] = dkappa * problem.clamp_rate(kappa) if dkappa else 0.0
+    rhs = -dg * problem.gravity_load[free]
+    if dkappa:
+        rhs -= problem.clamp_coupling(w) @ dw[fixed]
+    t = time.perf_counter()
+    dw[free] = solver.solve(rhs)
+    stats.linear_solve_s += time.perf_counter() - t
+    return dw
+
+
+def _predict(w, dw, lam, lam_new, prev):
+    """Hermite predictor: the tangent ``dw`` at ``lam`` plus the quadratic term
+    that makes the curve pass through the previous converged point ``prev``
+    (tangent predictor alone on the first step of a phase)."""
+    h = lam_new - lam
+    if prev is None:
+        return w + h * dw
+    lam0, w0 = prev
+    h0 = lam - lam0
+    c = (w0 - w + h0 * dw) / h0**2
+    return w + h * dw + h**2 * c
+
+
+def _growth(iterations, opts):
+    """Step-size factor after a converged step: grow after easy corrections,
+    shrink a little after hard ones (aiming at ``easy_iterations``)."""
+    if iterations <= opts.easy_iterations:
+        return opts.grow
+    if iterations == opts.easy_iterations + 1:
+        return 1.0 + 0.5 * (opts.grow - 1.0)
+    if iterations == opts.easy_iterations + 2:
+        return 1.0
+    return 0.7
+
+
+def follow_path(problem, path: str, kappa: float, solver, *,
+                newton_options: NewtonOptions = NewtonOptions(),
+                step_options: StepOptions = StepOptions(),
+                stats: Stats | None = None, w0=None, progress=None) -> PathOutcome:
+    """Run a load path from the reference state (or ``w0``) to full load.
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    path : {"curvature-first", "gravity-first"}
+    kappa : float
+        Target clamp curvature a/R.
+    solver : linear-solver back-end
+    progress : callable(fraction_of_path) or None
+
+    Returns
+    -------
+    PathOutcome
+        ``converged`` tells whether full load was reached; otherwise ``reason``,
+        ``kappa`` and ``g`` say how far it got and why it stopped.
+    """
+    stats = stats if stats is not None else Stats()
+    phases = load_phases(path, kappa)
+    w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
+    out = PathOutcome(w=w)
+    have_factor = False
+    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol)
+    for iphase, (name, load) in enumerate(phases):
+        lam, step = 0.0, step_options.initial_step
+        prev = None  # (lam, w) of the previous converged step of this phase
+        last_phase = iphase == len(phases) - 1
+        while lam < 1.0:
+            lam_new = min(1.0, lam + step)
+            k_new, g_new = load(lam_new)
+            k_old, _ = load(lam)
+            if not have_factor:
+                K = problem.tangent(w)
+                try:
+                    solver.factorize(K)
+                except LinearSolverError as err:
+                    out.reason = f"singular tangent at the start of the {name} phase ({err})"
+                    return out
+                stats.factorizations += 1
+                have_factor = True
+            dk, dg = _load_rate(problem, name, load, lam)
+            dw = _tangent_predictor(problem, w, dk, dg, k_old, solver, stats)
+            w_pred = _predict(w, dw, lam, lam_new, prev)
+            w_pred[problem.fixed] = problem.clamp_values(k_new)
+            # the branch guard matters once the sheet can be on either branch
+            guard = step_options.max_correction if iphase > 0 else np.inf
+            final = last_phase and lam_new == 1.0
+            res = newton(problem, w_pred, g_new, solver,
+                         newton_options if final else loose, stats,
+                         max_first_increment=guard)
+            if res.converged:
+                prev = (lam, w)
+                w, lam = res.w, lam_new
+                out.w, out.kappa, out.g = w, k_new, g_new
+                out.steps.append((name, lam, res.iterations))
+                # Newton leaves the factorisation of its last tangent behind
+                if progress is not None:
+                    progress((iphase + lam) / len(phases))
+                step = min(step_options.max_step, step * _growth(res.iterations, step_options))
+                continue
+            out.rejected_steps += 1
+            out.rejections.append((name, lam_new, res.reason, res.iterations, res.corrections))
+            have_factor = False  # the failed attempt's factorisation is useless
+            step *= 0.5
+            if step < step_options.min_step:
+                out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
+                              f"(kappa={out.kappa:.4g}, g={out.g:.4g}): step below "
+                              f"{step_options.min_step:g}; last Newton failure: {res.reason}")
+                return out
+    out.converged = True
+    return out

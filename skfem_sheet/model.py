@@ -1,0 +1,365 @@
+"""The incompressible neo-Hookean sheet: kernels and the discrete Newton system.
+
+Continuum model (paper, SI "Numerical Method")::
+
+    Pi(U, p) = int  mu/2 (I_C - 3) - mu ln J + g U_z - p (J - 1)  dV
+
+with ``F = I + grad U``, ``J = det F``, ``I_C = tr(F^T F)``, dimensionless
+units (lengths / a, energy densities / (rho g a), so the weight density is 1
+and ``g`` is the gravity *load factor*, 1 at full gravity).
+
+About ``- mu ln J``: it vanishes wherever ``J = 1``, so the continuum problem is
+the paper's; it only shifts the Lagrange multiplier, ``p_paper = p + mu`` (the
+paper's pressure is ``mu`` in the stress-free state, ours is 0).  Without it
+the displacement block of the tangent carries ``-mu D^2 J``, which with one
+element through the thickness (where P1 pressure enforces ``J = 1`` only
+weakly) made Newton stall at mesh-dependent, unphysical loads (see
+``shared/notes/measured-facts.md``).  Outputs report ``p_paper``.
+
+Discretisation: Taylor-Hood tetrahedra, P2 displacement, P1 pressure;
+displacement dofs are numbered node by node, ``3 * node + component``, then
+pressure dofs ``3 * n_nodes + vertex``.  Element matrices are computed for all
+elements at once with a few batched products (no per-basis-pair callbacks),
+and scattered into a CSR matrix whose sparsity pattern is computed once.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import scipy.sparse as sp
+
+from .mesh import SheetMesh
+from .params import Sheet
+
+__all__ = ["clamp_displacement", "clamp_displacement_rate", "kinematics",
+           "first_piola", "SheetProblem"]
+
+
+# ----------------------------------------------------------------------------
+# pure kernels
+# ----------------------------------------------------------------------------
+def clamp_displacement(y, z, kappa):
+    """Clamp displacement ``U0(y, z)`` for clamp curvature ``kappa = a/R``.
+
+    SI eq. for U0::
+
+        U0 = [(R - z) sin(y/R) - y] e_y + (R - z) [1 - cos(y/R)] e_z,  U0_x = 0,
+
+    written in a form that is exact and smooth as ``kappa -> 0`` (``U0 = 0``):
+    ``R sin(y/R) = y sinc(kappa y / pi)`` and
+    ``R (1 - cos(y/R)) = y sin(kappa y / 2) sinc(kappa y / (2 pi))``.
+
+    Returns an array of shape ``y.shape + (3,)``.
+    """
+    y = np.asarray(y, dtype=float)
+    z = np.asarray(z, dtype=float)
+    s = np.sin(kappa * y)
+    r_sin = y * np.sinc(kappa * y / np.pi)  # R sin(y/R)
+    r_vers = y * np.sin(0.5 * kappa * y) * np.sinc(kappa * y / (2 * np.pi))  # R (1 - cos)
+    out = np.zeros(y.shape + (3,))
+    out[..., 1] = r_sin - z * s - y
+    out[..., 2] = r_vers - z * (1.0 - np.cos(kappa * y))
+    return out
+
+
+def clamp_displacement_rate(y, z, kappa, dk=1e-6):
+    """``d U0 / d kappa`` (central difference of :func:`clamp_displacement`)."""
+    return (clamp_displacement(y, z, kappa + dk)
+            - clamp_displacement(y, z, kappa - dk)) / (2 * dk)
+
+
+def kinematics(Ue, dphi):
+    """Deformation gradient at quadrature points.
+
+    Parameters
+    ----------
+    Ue : ndarray (nel, 10, 3)
+        Nodal displacements of each element.
+    dphi : ndarray (nel, nq, 10, 3)
+        Reference gradients of the P2 basis.
+
+    Returns
+    -------
+    F : ndarray (nel, nq, 3, 3), ``F_iJ = delta_iJ + dU_i/dX_J``.
+    """
+    F = np.einsum("eai,eqaj->eqij", Ue, dphi)
+    F[..., 0, 0] += 1.0
+    F[..., 1, 1] += 1.0
+    F[..., 2, 2] += 1.0
+    return F
+
+
+def det_inv(F):
+    """Determinant and inverse of a stack of 3x3 matrices (explicit cofactors,
+    several times faster than ``np.linalg`` on many tiny matrices)."""
+    a, b, c = F[..., 0, 0], F[..., 0, 1], F[..., 0, 2]
+    d, e, f = F[..., 1, 0], F[..., 1, 1], F[..., 1, 2]
+    g, h, i = F[..., 2, 0], F[..., 2, 1], F[..., 2, 2]
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    J = a * A + b * B + c * C
+    cof = np.stack([np.stack([A, c * h - b * i, b * f - c * e], -1),
+                    np.stack([B, a * i - c * g, c * d - a * f], -1),
+                    np.stack([C, b * g - a * h, a * e - b * d], -1)], -2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Finv = cof / J[..., None, None]
+    return J, Finv
+
+
+def first_piola(F, p, mu):
+    """First Piola stress of ``psi = mu/2 (I_C - 3) - mu ln J - p (J - 1)``.
+
+    ``P = mu F - (mu + p J) F^{-T}``.  Returns ``(P, J, Finv)``.
+    """
+    J, Finv = det_inv(F)
+    P = mu * F - (mu + p * J)[..., None, None] * np.swapaxes(Finv, -1, -2)
+    return P, J, Finv
+
+
+# ----------------------------------------------------------------------------
+# the discrete problem
+# ----------------------------------------------------------------------------
+class SheetProblem:
+    """Taylor-Hood discretisation of one sheet on one mesh.
+
+    Holds everything that does not change between Newton iterations or load
+    steps: basis gradients and weights, dof maps, the CSR sparsity pattern of
+    the reduced (free-dof) tangent and the scatter maps into it.
+
+    Parameters
+    ----------
+    sheet : Sheet
+    mesh : SheetMesh
+    quadrature_order : int
+        Order of the tetrahedral quadrature (2: 4 points, exact for the
+        linearised stiffness of P2; 4: 11 points).
+    """
+
+    def __init__(self, sheet: Sheet, mesh: SheetMesh, quadrature_order: int = 2):
+        # everything but the material is shared by all problems on one mesh
+        self.__dict__.update(_discretization(mesh, quadrature_order))
+        self.sheet = sheet
+        self.mu = sheet.mu
+
+    @property
+    def n_free(self) -> int:
+        return len(self.free)
+
+    # -- state helpers -------------------------------------------------------
+    def split(self, w):
+        """Nodal displacements (n_nodes, 3) and vertex pressures of ``w``."""
+        return w[: self.nu_dof].reshape(-1, 3), w[self.nu_dof:]
+
+    def clamp_values(self, kappa):
+        """Values of the fixed dofs for clamp curvature ``kappa``."""
+        X = self.nodes[self.clamp_nodes]
+        return clamp_displacement(X[:, 1], X[:, 2], kappa).ravel()
+
+    def clamp_rate(self, kappa):
+        X = self.nodes[self.clamp_nodes]
+        return clamp_displacement_rate(X[:, 1], X[:, 2], kappa).ravel()
+
+    def _fields(self, w, elements=None):
+        U, pv = self.split(w)
+        sel = slice(None) if elements is None else elements
+        F = kinematics(U[self.element_nodes[sel]], self.dphi[sel])
+        p = np.einsum("ec,eqc->eq", pv[self.element_vertices[sel]], self.phi1[sel])
+        return F, p
+
+    # -- residual, tangent, energy ------------------------------------------
+    def residual(self, w, g):
+        """Full residual vector ``dPi/dw`` at gravity factor ``g``.
+
+        Returns ``(r, Jmin)`` where ``Jmin`` is the smallest ``det F`` over
+        quadrature points (``<= 0`` means an inverted element; then ``r`` is
+        meaningless and filled with NaN).
+        """
+        F, p = self._fields(w)
+        P, J, _ = first_piola(F, p, self.mu)
+        Jmin = float(J.min())
+        if not Jmin > 0:
+            return np.full(self.ndof, np.nan), Jmin
+        wq = self.dx
+        ru = np.einsum("eq,eqij,eqaj->eai", wq, P, self.dphi).reshape(len(wq), 30)
+        rp = -np.einsum("eq,eqc->ec", wq * (J - 1.0), self.phi1)
+        r = np.bincount(self.edofs.ravel(), weights=np.hstack([ru, rp]).ravel(),
+                        minlength=self.ndof)
+        r += g * self.gravity_load
+        return r, Jmin
+
+    def element_matrices(self, w, elements=None):
+        """Element tangents, shape (nel, 34, 34): the Hessian of Pi.
+
+        ``K[(a,i),(b,k)] = int mu d_ik grad phi_a . grad phi_b
+        + (mu + p J) b_ak b_bi - p J b_ai b_bk``, with the spatial gradients
+        ``b_a = F^{-T} grad phi_a``, and ``K[(a,i), c] = -int J b_ai psi_c``.
+        """
+        F, p = self._fields(w, elements)
+        J, Finv = det_inv(F)
+        nel, nq = J.shape
+        sel = slice(None) if elements is None else elements
+        dphi = self.dphi[sel]
+        bs = np.einsum("eqmi,eqam->eqai", Finv, dphi).reshape(nel, nq, 30)
+        wq = self.dx[sel]
+        pJ = p * J
+        K = np.zeros((nel, 34, 34))
+        c2 = (wq * (self.mu + pJ))[..., None] * bs
+        Y = np.matmul(c2.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
+        Kuu = Y.transpose(0, 1, 4, 3, 2).copy()  # (e, a, i, b, k) <- (e, a, k, b, i)
+        c3 = (wq * pJ)[..., None] * bs
+        Kuu -= np.matmul(c3.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
+        lap = self.mu * self._lap[sel]
+        for i in range(3):
+            Kuu[:, :, i, :, i] += lap
+        K[:, :30, :30] = Kuu.reshape(nel, 30, 30)
+        Kup = -np.matmul(((wq * J)[..., None] * bs).transpose(0, 2, 1), self.phi1[sel])
+        K[:, :30, 30:] = Kup
+        K[:, 30:, :30] = Kup.transpose(0, 2, 1)
+        return K
+
+    def tangent(self, w):
+        """Reduced tangent ``K_ff`` (free dofs) as a CSR matrix.
+
+        Its sparsity pattern is fixed for the problem's lifetime, and the zero
+        diagonal entries of the pressure block are stored explicitly.
+        """
+        Ke = self.element_matrices(w).ravel()
+        data = self._scatter_ff @ Ke
+        nf = self.n_free
+        return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
+
+    def clamp_coupling(self, w):
+        """``K_fd``: free rows, clamped columns (only clamp elements are computed)."""
+        Ke = self.element_matrices(w, self.clamp_elements).ravel()
+        data = self._scatter_fd @ Ke
+        return sp.csr_matrix((data, self._indices_fd, self._indptr_fd),
+                             shape=(self.n_free, len(self.fixed)))
+
+    def energy(self, w, g):
+        """Total potential energy Pi (the constraint term vanishes at equilibrium)."""
+        F, p = self._fields(w)
+        J = np.linalg.det(F)
+        IC = np.einsum("eqij,eqij->eq", F, F)
+        dens = 0.5 * self.mu * (IC - 3) - self.mu * np.log(J) - p * (J - 1)
+        U, _ = self.split(w)
+        return float(np.sum(self.dx * dens) + g * U[:, 2] @ (self.gravity_load[2:self.nu_dof:3]))
+
+    def energy_density(self, w):
+        """psi/mu = (I_C - 3)/2, averaged over each element (paper Fig. 3)."""
+        F, _ = self._fields(w)
+        IC = np.einsum("eqij,eqij->eq", F, F)
+        return np.sum(self.dx * 0.5 * (IC - 3), axis=1) / self.dx.sum(axis=1)
+
+    def jacobians(self, w):
+        """det F at all quadrature points, shape (nel, nq)."""
+        F, _ = self._fields(w)
+        return np.linalg.det(F)
+
+    def deformed_volume(self, w):
+        """int J dV over the reference domain."""
+        return float(np.sum(self.dx * self.jacobians(w)))
+
+    def paper_pressure(self, w):
+        """Nodal pressure in the paper's convention, ``p + mu``."""
+        return self.split(w)[1] + self.mu
+
+
+@lru_cache(maxsize=8)
+def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
+    """Bases, dof maps and the sparsity pattern of one mesh (cached: the
+    pattern takes a few seconds to build at hmax = 0.03)."""
+    from skfem import Basis, ElementTetP1, ElementTetP2
+
+    self = _Namespace()
+    self.sheet_mesh = mesh
+    m = mesh.mesh
+    b2 = Basis(m, ElementTetP2(), intorder=quadrature_order)
+    b1 = Basis(m, ElementTetP1(), intorder=quadrature_order)
+    self.basis_u, self.basis_p = b2, b1
+    nel = m.t.shape[1]
+    # (nel, nq, 10, 3) gradients, (nel, nq, 10) P2 values, (nel, nq, 4) P1 values
+    self.dphi = np.ascontiguousarray(
+        np.stack([b2.basis[a][0].grad for a in range(10)], axis=0).transpose(2, 3, 0, 1))
+    self.phi2 = np.stack([np.asarray(b2.basis[a][0]) for a in range(10)], axis=-1)
+    self.phi1 = np.stack([np.asarray(b1.basis[c][0]) for c in range(4)], axis=-1)
+    self.dx = np.asarray(b2.dx)
+    self.n_nodes = b2.N
+    self.n_vertices = b1.N
+    self.nodes = b2.doflocs.T  # (n_nodes, 3) node coordinates
+    self.ndof = 3 * self.n_nodes + self.n_vertices
+    self.nu_dof = 3 * self.n_nodes
+    en = b2.element_dofs.T  # (nel, 10) node numbers
+    self.element_nodes = en
+    self.element_vertices = b1.element_dofs.T  # (nel, 4)
+    edofs_u = (3 * en[:, :, None] + np.arange(3)).reshape(nel, 30)
+    self.edofs = np.hstack([edofs_u, self.nu_dof + self.element_vertices])  # (nel, 34)
+
+    # clamp x = 0: all displacement dofs of those nodes
+    x = self.nodes[:, 0]
+    self.clamp_nodes = np.flatnonzero(np.abs(x) < 1e-9 * mesh.length)
+    fixed = (3 * self.clamp_nodes[:, None] + np.arange(3)).ravel()
+    is_fixed = np.zeros(self.ndof, bool)
+    is_fixed[fixed] = True
+    self.fixed = fixed
+    self.free = np.flatnonzero(~is_fixed)
+    _build_pattern(self)
+
+    # constant parts: mu grad.grad (per element, scalar 10x10) and gravity load
+    w = self.dx
+    self._lap = np.einsum("eq,eqaj,eqbj->eab", w, self.dphi, self.dphi)
+    fg = np.zeros(self.ndof)
+    np.add.at(fg, 3 * en + 2, np.einsum("eq,eqa->ea", w, self.phi2))
+    self.gravity_load = fg  # d/dg of the residual
+    self.volume0 = float(w.sum())
+
+    return vars(self)
+
+
+class _Namespace:
+    pass
+
+
+def _scatter(slots, entries, n_slots, n_entries):
+    """Sparse 0/1 operator adding element-matrix ``entries`` into ``slots``."""
+    return sp.csr_matrix((np.ones(len(slots)), (slots, entries)), shape=(n_slots, n_entries))
+
+
+def _build_pattern(self):
+    """CSR patterns of the free-free and free-fixed blocks and the scatter
+    operators from element matrices into them (assembly is one sparse
+    mat-vec).  The free-fixed block only involves elements touching the clamp."""
+    nd = self.edofs.shape[1]
+    n = self.ndof
+    red = np.full(n, -1, dtype=np.int64)
+    red[self.free] = np.arange(len(self.free))
+    fix = np.full(n, -1, dtype=np.int64)
+    fix[self.fixed] = np.arange(len(self.fixed))
+    nf, nx = len(self.free), len(self.fixed)
+    n_entries = self.edofs.shape[0] * nd * nd
+    rows = np.repeat(self.edofs, nd, axis=1).ravel()
+    cols = np.tile(self.edofs, (1, nd)).ravel()
+    rf, cf = red[rows], red[cols]
+    ff = np.flatnonzero((rf >= 0) & (cf >= 0))
+    # include the full diagonal so that the pressure block has explicit
+    # (zero) diagonal entries (needed by symmetric solvers)
+    diag = np.arange(nf)
+    keys = np.concatenate([rf[ff] * nf + cf[ff], diag * nf + diag])
+    uniq, inv = np.unique(keys, return_inverse=True)
+    self._scatter_ff = _scatter(inv[: len(ff)], ff, len(uniq), n_entries)
+    r, c = np.divmod(uniq, nf)
+    self._indptr_ff = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=nf))]).astype(np.int32)
+    self._indices_ff = c.astype(np.int32)
+    # free-fixed block, from the elements touching the clamp only
+    is_fixed = np.zeros(n, bool)
+    is_fixed[self.fixed] = True
+    self.clamp_elements = np.flatnonzero(is_fixed[self.edofs].any(axis=1))
+    ed = self.edofs[self.clamp_elements]
+    rows = np.repeat(ed, nd, axis=1).ravel()
+    cols = np.tile(ed, (1, nd)).ravel()
+    fd = np.flatnonzero((red[rows] >= 0) & (fix[cols] >= 0))
+    keys = red[rows[fd]] * nx + fix[cols[fd]]
+    uniq, inv = np.unique(keys, return_inverse=True)
+    self._scatter_fd = _scatter(inv, fd, len(uniq), len(ed) * nd * nd)
+    r, c = np.divmod(uniq, nx)
+    self._indptr_fd = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=nf))]).astype(np.int32)
+    self._indices_fd = c.astype(np.int32)

@@ -1,0 +1,186 @@
+"""Newton-Raphson for one load ``(kappa, g)``, with a backtracking line search.
+
+Convergence needs both a small residual and a small last increment::
+
+    ||r_free||_2 <= rtol * ||f_gravity||_2   and   max |du| <= utol
+
+(``f_gravity`` is the discrete weight vector at full gravity, the natural force
+scale).  Every trial point is checked for inverted elements (``det F <= 0``)
+and NaN; the line search halves the step on those and on an insufficient
+decrease of ``||r||``.  The result says honestly whether it converged and why
+not.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .linalg import LinearSolverError
+
+__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton"]
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Tolerances and limits of the Newton iteration.
+
+    Attributes
+    ----------
+    rtol : float
+        Residual tolerance relative to the norm of the full weight vector.
+    utol : float
+        Tolerance on the largest displacement increment (units of a).
+    max_iterations : int
+        Give up (and let the load stepping cut the step) after this many.
+    max_halvings : int
+        Line-search step halvings before the iteration is declared stalled.
+    """
+
+    rtol: float = 1e-4
+    utol: float = 1e-6
+    max_iterations: int = 8
+    max_halvings: int = 6
+
+    def __post_init__(self):
+        from .params import check_range
+
+        check_range("rtol", self.rtol, 0, 1, lo_open=True)
+        check_range("utol", self.utol, 0, 1, lo_open=True)
+        check_range("max_iterations", self.max_iterations, 1, 1000)
+        check_range("max_halvings", self.max_halvings, 0, 60)
+
+
+@dataclass
+class Stats:
+    """Counters and timers accumulated over a whole solve."""
+
+    newton_iterations: int = 0
+    factorizations: int = 0
+    residual_evaluations: int = 0
+    assembly_s: float = 0.0
+    linear_solve_s: float = 0.0
+
+    def as_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class NewtonResult:
+    w: np.ndarray
+    converged: bool
+    iterations: int
+    reason: str = ""
+    residuals: list = field(default_factory=list)
+    first_increment: float = 0.0
+    corrections: list = field(default_factory=list)  # max |du| of each iteration
+
+
+def _timed(stats, attr, fn, *args):
+    t = time.perf_counter()
+    try:
+        return fn(*args)
+    finally:
+        setattr(stats, attr, getattr(stats, attr) + time.perf_counter() - t)
+
+
+def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
+           max_first_increment=np.inf) -> NewtonResult:
+    """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
+
+    Full Newton steps, halved only where a trial point has an inverted element
+    (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard natural-monotonicity)
+    line search was tried and rejected: a bending step of a thin sheet leaves a
+    large membrane residual that the *next* full Newton step removes, so those
+    tests cut good steps and doubled the iteration counts.  Globalisation is
+    the job of the load stepping (:mod:`skfem_sheet.continuation`), which cuts
+    the load step when Newton fails here; an iteration whose correction grows
+    is stopped early as "diverging".
+
+    Convergence: ``||r_free|| <= rtol ||f_gravity||`` and the next correction
+    is below ``utol``.  The next correction is estimated by a simplified Newton
+    step ``-K^{-1} r`` with the factorisation at hand (a back-substitution), so
+    no factorisation is spent only to confirm convergence.
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    w : ndarray
+        Initial guess; its clamped entries are the boundary values.
+    g : float
+        Gravity load factor.
+    solver : linear-solver back-end (see :mod:`skfem_sheet.linalg`)
+    options : NewtonOptions
+    stats : Stats
+        Updated in place (iterations, factorizations, timings).
+    max_first_increment : float
+        Reject the attempt if the first correction moves a node further than
+        this: a guard against jumping to another branch after a large step.
+
+    Returns
+    -------
+    NewtonResult
+        ``w`` is the last iterate; ``converged`` is False with a ``reason``
+        ("inverted element", "NaN", "stalled", "max iterations", "singular
+        tangent", "first correction too large") otherwise.
+    """
+    free = problem.free
+    nu_free = free < problem.nu_dof  # displacement part of the free dofs
+    rref = float(np.linalg.norm(problem.gravity_load[free]))
+    w = w.copy()
+    r, Jmin = _timed(stats, "assembly_s", problem.residual, w, g)
+    stats.residual_evaluations += 1
+    if not Jmin > 0:
+        return NewtonResult(w, False, 0, "inverted element in the initial guess")
+    rn = float(np.linalg.norm(r[free]))
+    history = [rn]
+    first = 0.0
+    last_norm = np.inf
+    corrections = []
+
+    def back_solve(rhs):
+        return _timed(stats, "linear_solve_s", solver.solve, rhs)
+
+    for it in range(options.max_iterations):
+        if not np.isfinite(rn):
+            return NewtonResult(w, False, it, "NaN in the residual", history, first, corrections)
+        K = _timed(stats, "assembly_s", problem.tangent, w)
+        try:
+            _timed(stats, "linear_solve_s", solver.factorize, K)
+            delta = back_solve(-r[free])
+        except LinearSolverError as err:
+            return NewtonResult(w, False, it, f"singular tangent ({err})", history, first, corrections)
+        stats.factorizations += 1
+        stats.newton_iterations += 1
+        if not np.all(np.isfinite(delta)):
+            return NewtonResult(w, False, it + 1, "NaN in the Newton increment", history, first, corrections)
+        du_norm = float(np.linalg.norm(delta[nu_free]))
+        if it == 0:
+            first = float(np.abs(delta[nu_free]).max())
+            if first > max_first_increment:
+                return NewtonResult(w, False, 1, "first correction too large "
+                                    f"({first:.3g} > {max_first_increment:.3g})", history, first, corrections)
+        corrections.append(float(np.abs(delta[nu_free]).max()))
+        if it >= 2 and du_norm > 2.0 * last_norm:
+            return NewtonResult(w, False, it + 1, "diverging", history, first, corrections)
+        last_norm = du_norm
+        alpha = 1.0
+        for _ in range(options.max_halvings + 1):
+            wt = w.copy()
+            wt[free] += alpha * delta
+            rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
+            stats.residual_evaluations += 1
+            if Jmin > 0 and np.all(np.isfinite(rt)):
+                break
+            alpha *= 0.5
+        else:
+            return NewtonResult(w, False, it + 1, "inverted element", history, first, corrections)
+        w, r = wt, rt
+        rn = float(np.linalg.norm(r[free]))
+        history.append(rn)
+        if rn <= options.rtol * rref:
+            dbar = back_solve(-r[free])
+            if float(np.abs(dbar[nu_free]).max()) <= options.utol:
+                return NewtonResult(w, True, it + 1, "", history, first, corrections)
+    return NewtonResult(w, False, options.max_iterations, "max iterations", history, first, corrections)

@@ -1,0 +1,80 @@
+"""Pictures of deformed sheets (matplotlib, no screen needed)."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["top_surface", "plot_sheet"]
+
+
+def top_surface(result):
+    """Deformed top surface ``z = h/2``: vertices (n, 3), triangles (m, 3) and
+    psi/mu of the tetrahedron under each triangle."""
+    problem = result.problem
+    mesh = problem.sheet_mesh.mesh
+    h = problem.sheet_mesh.thickness
+    f = mesh.boundary_facets()
+    tri = mesh.facets[:, f]
+    top = np.all(np.abs(mesh.p[2, tri] - h / 2) < 1e-9, axis=0)
+    tri = tri[:, top].T
+    elem = mesh.f2t[0, f[top]]
+    nv = mesh.p.shape[1]
+    X = mesh.p.T + result.displacement[:nv]
+    return X, tri, result.energy_density[elem]
+
+
+def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=True):
+    """Shaded 3D view of the deformed sheet coloured by psi/mu (paper Fig. 3).
+
+    Parameters
+    ----------
+    result : Result
+    filename : str, optional
+        Write a PNG there.
+    ax : matplotlib 3D axes, optional
+    vmax : float, optional
+        Upper end of the colour scale (default: 99th percentile).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+
+    if filename is not None and ax is None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    from matplotlib import cm, colors
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    X, tri, psi = top_surface(result)
+    if ax is None:
+        fig = plt.figure(figsize=(6.0, 4.6))
+        ax = fig.add_subplot(projection="3d")
+    else:
+        fig = ax.figure
+    vmax = vmax or float(np.percentile(psi, 99)) or 1.0
+    norm = colors.Normalize(0.0, vmax)
+    cmap = matplotlib.colormaps["viridis"]
+    poly = Poly3DCollection(X[tri], facecolors=cmap(norm(psi)), edgecolors="none",
+                            shade=True, lightsource=colors.LightSource(azdeg=315, altdeg=45))
+    ax.add_collection3d(poly)
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    span = max(hi - lo)
+    mid = 0.5 * (lo + hi)
+    for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
+        set_lim(c - span / 2, c + span / 2)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x/a")
+    ax.set_ylabel("y/a")
+    ax.set_zlabel("z/a")
+    ax.view_init(elev=18, azim=-125)
+    s = result.sheet
+    ax.set_title(title or (f"L/a={s.length:g}, b/a={s.tip_width:g}, a/R={s.curvature:g}, "
+                           f"{result.path}\nd/a = {result.deflection:.4f}"), fontsize=9)
+    if colorbar:
+        sm = cm.ScalarMappable(norm=norm, cmap=cmap)
+        fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.1, label=r"$\psi/\mu$")
+    if filename is not None:
+        fig.savefig(filename, dpi=150, bbox_inches="tight")
+        plt.close(fig)
+    return fig

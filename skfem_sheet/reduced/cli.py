@@ -1,0 +1,248 @@
+"""Command line of the reduced-order models: ``python -m skfem_sheet rom ...``.
+
+:func:`add_rom_subparser` registers the ``rom`` command with the sub-commands
+``persistence``, ``elastica``, ``cantilever``, ``ribbon`` and ``map``; each sets
+``func`` (``args -> exit code``).  Bad input raises ``ValueError`` (the main
+CLI reports it in one line, exit status 2).  JSON keys are a contract:
+
+- persistence: ``persistence_length``, ``persistence_length_asymptotic``
+- elastica, cantilever: ``deflection``
+- ribbon: ``lengths``, ``deflection``, ``converged`` (lists in continuation order)
+
+Examples
+--------
+>>> import argparse
+>>> p = argparse.ArgumentParser(); sub = p.add_subparsers(dest="command")
+>>> add_rom_subparser(sub)
+>>> args = p.parse_args(["rom", "elastica", "--length", "1"])
+>>> args.func(args)
+elastica: L/a=1 b/a=1 h/a=0.03 E=735 -> d/a = 0.768087 (converged)
+0
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+
+from skfem_sheet.params import Sheet
+
+__all__ = ["add_rom_subparser", "parse_range"]
+
+_MAX_POINTS = 10000
+
+
+def parse_range(text, name: str = "--lengths"):
+    """Parse ``"a:b:step"`` into the values a, a + step, ..., <= b (b included).
+
+    Raises ``ValueError`` naming ``name`` on malformed input.
+
+    Examples
+    --------
+    >>> parse_range("1.0:1.1:0.05").tolist()
+    [1.0, 1.05, 1.1]
+    """
+    parts = str(text).split(":")
+    if len(parts) != 3:
+        raise ValueError(f"{name} must be 'start:stop:step', got {text!r}")
+    try:
+        a, b, step = (float(x) for x in parts)
+    except ValueError:
+        raise ValueError(f"{name} must be 'start:stop:step' with numbers, got {text!r}") from None
+    if not all(math.isfinite(v) for v in (a, b, step)):
+        raise ValueError(f"{name} values must be finite, got {text!r}")
+    if step <= 0:
+        raise ValueError(f"{name} step must be in (0, inf), got {step!r}")
+    if b < a:
+        raise ValueError(f"{name} stop must be >= start, got {text!r}")
+    n = int(math.floor((b - a) / step + 1e-9)) + 1
+    if n > _MAX_POINTS:
+        raise ValueError(f"{name} must have at most {_MAX_POINTS} points, got {n}")
+    return np.round(a + step * np.arange(n), 12)
+
+
+def _jsonable(x):
+    """Floats with inf/nan mapped to None (strict JSON)."""
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x
+
+
+def _write_json(path, payload) -> None:
+    if path:
+        with open(path, "w") as fh:
+            json.dump({k: _jsonable(v) for k, v in payload.items()}, fh, indent=2)
+            fh.write("\n")
+
+
+def _sheet(args, length=None) -> Sheet:
+    return Sheet(length=args.length if length is None else length,
+                 tip_width=args.tip_width, curvature=getattr(args, "curvature", 0.0),
+                 thickness=args.thickness, modulus=args.modulus)
+
+
+def _label(sheet: Sheet) -> str:
+    return (f"L/a={sheet.length:g} b/a={sheet.tip_width:g} a/R={sheet.curvature:g} "
+            f"h/a={sheet.thickness:g} E={sheet.modulus:g}")
+
+
+# -- commands ------------------------------------------------------------------------
+def _cmd_persistence(args) -> int:
+    from skfem_sheet.reduced.persistence import persistence_length
+    sheet = _sheet(args)
+    r = persistence_length(sheet)
+    _write_json(args.json, {
+        "persistence_length": r.persistence_length,
+        "persistence_length_asymptotic": r.persistence_length_asymptotic,
+        "rectangle_persistence_length": r.rectangle_length, "lhat": r.lhat,
+        "delta_hat": r.delta_hat, "reaches_tip": r.reaches_tip, "sheet": sheet.to_dict()})
+    print(f"persistence: {_label(sheet)} -> L_p/a = {r.persistence_length:.6g} "
+          f"(asymptotic {r.persistence_length_asymptotic:.6g}, rectangle {r.rectangle_length:.6g})")
+    return 0
+
+
+def _cmd_elastica(args) -> int:
+    from skfem_sheet.reduced.elastica import elastica
+    sheet = Sheet(length=args.length, tip_width=args.tip_width,
+                  thickness=args.thickness, modulus=args.modulus)
+    r = elastica(sheet)
+    _write_json(args.json, {"deflection": r.deflection, "converged": r.converged,
+                            "sheet": sheet.to_dict()})
+    print(f"elastica: L/a={sheet.length:g} b/a={sheet.tip_width:g} h/a={sheet.thickness:g} "
+          f"E={sheet.modulus:g} -> d/a = {r.deflection:.6f} "
+          f"({'converged' if r.converged else 'NOT converged'})")
+    return 0
+
+
+def _cmd_cantilever(args) -> int:
+    from skfem_sheet.reduced.cantilever import cantilever_deflection
+    sheet = _sheet(args)
+    r = cantilever_deflection(sheet, include_curved_part=args.include_curved_part)
+    _write_json(args.json, {"deflection": r.deflection, "flat_drop": r.flat_drop,
+                            "curved_rise": r.curved_rise,
+                            "persistence_length": r.persistence_length,
+                            "coefficient": r.coefficient, "sheet": sheet.to_dict()})
+    print(f"cantilever: {_label(sheet)} -> d/a = {r.deflection:.6g} "
+          f"(L_p/a = {r.persistence_length:.6g}, C = {r.coefficient:.6g})")
+    return 0
+
+
+def _cmd_ribbon(args) -> int:
+    from skfem_sheet.reduced.ribbon import ribbon_continuation
+    lengths = parse_range(args.lengths, "--lengths")
+    template = _sheet(args, length=float(lengths[0]))
+    br = ribbon_continuation(template, lengths, args.direction,
+                             impose_flat=args.impose_flat, n_elements=args.elements)
+    _write_json(args.json, {
+        "lengths": br.lengths.tolist(), "deflection": br.deflection.tolist(),
+        "converged": br.converged.tolist(), "stable": br.stable.tolist(),
+        "jumped": br.jumped.tolist(), "jump_lengths": br.jump_lengths.tolist(),
+        "direction": br.direction, "impose_flat": bool(args.impose_flat),
+        "sheet": {k: v for k, v in template.to_dict().items() if k != "length"}})
+    jumps = ", ".join(f"{x:.4f}" for x in br.jump_lengths) or "none"
+    print(f"ribbon ({br.direction} L, {len(br.lengths)} lengths "
+          f"{br.lengths[0]:g}..{br.lengths[-1]:g}, b/a={template.tip_width:g}, "
+          f"a/R={template.curvature:g}): d/a from {br.deflection[0]:.4f} to "
+          f"{br.deflection[-1]:.4f}; jumps at L/a = {jumps}; "
+          f"{int(br.converged.sum())}/{br.converged.size} converged")
+    return 0
+
+
+def _cmd_map(args) -> int:
+    from skfem_sheet.reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
+    lengths = (parse_range(args.lengths, "--lengths") if args.lengths
+               else np.linspace(0.8, 2.2, 50))
+    widths = (parse_range(args.tip_widths, "--tip-widths") if args.tip_widths
+              else np.linspace(0.0, 1.0, 50))
+    if widths.min() < 0 or widths.max() > 1:
+        raise ValueError(f"--tip-widths must be in [0, 1], got {args.tip_widths!r}")
+    Sheet(length=float(lengths[0]), curvature=args.curvature, thickness=args.thickness,
+          modulus=args.modulus)  # validate up front
+    workers = args.workers or min(2, os.cpu_count() or 1)
+    rows = ribbon_map(args.curvature, lengths, widths, thickness=args.thickness,
+                      modulus=args.modulus, n_elements=args.elements, workers=workers)
+    if args.csv:
+        write_map_csv(rows, args.csv)
+    if args.png:
+        plot_map(rows, args.png, title=f"a/R={args.curvature:g}")
+    bs, jl = jump_curve(rows, "increasing")
+    has = np.isfinite(jl)
+    extent = (f"jumps for b/a in [{bs[has].min():g}, {bs[has].max():g}]" if has.any()
+              else "no jumps")
+    print(f"map: a/R={args.curvature:g}, {lengths.size} lengths x {widths.size} shape "
+          f"factors x 2 directions, {sum(not r['converged'] for r in rows)} not converged; "
+          f"{extent}" + (f"; csv -> {args.csv}" if args.csv else "")
+          + (f"; png -> {args.png}" if args.png else ""))
+    return 0
+
+
+# -- parser --------------------------------------------------------------------------
+def _common(parser, length=True, curvature=True, required_curvature=False):
+    if length:
+        parser.add_argument("--length", type=float, required=True, help="L/a")
+    parser.add_argument("--tip-width", type=float, default=1.0, help="b/a (default 1)")
+    if curvature:
+        parser.add_argument("--curvature", type=float, default=None if required_curvature
+                            else 0.0, required=required_curvature, help="a/R")
+    parser.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
+    parser.add_argument("--modulus", type=float, default=735.0,
+                        help="E/(rho g a) (default 735)")
+
+
+def add_rom_subparser(subparsers) -> None:
+    """Register the ``rom`` command (reduced-order models) on an argparse subparsers object.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        From ``parser.add_subparsers(...)``.
+    """
+    rom = subparsers.add_parser(
+        "rom", help="reduced-order models (persistence length, elastica, cantilever, ribbon)",
+        description="Reduced-order models of the curved sheet (issue 7).")
+    sub = rom.add_subparsers(dest="rom_command", metavar="MODEL")
+    sub.required = True
+
+    p = sub.add_parser("persistence", help="gravity-free persistence length L_p")
+    _common(p, required_curvature=True)
+    p.add_argument("--json", help="write results to this JSON file")
+    p.set_defaults(func=_cmd_persistence)
+
+    p = sub.add_parser("elastica", help="heavy elastica with varying width")
+    _common(p, curvature=False)
+    p.add_argument("--json", help="write results to this JSON file")
+    p.set_defaults(func=_cmd_elastica)
+
+    p = sub.add_parser("cantilever", help="Euler-Bernoulli cantilever beyond L_p")
+    _common(p)
+    p.add_argument("--include-curved-part", action="store_true",
+                   help="also count the rise W_0(L_p) of the curved part")
+    p.add_argument("--json", help="write results to this JSON file")
+    p.set_defaults(func=_cmd_cantilever)
+
+    p = sub.add_parser("ribbon", help="ribbon model, continuation in L")
+    _common(p, length=False)
+    p.add_argument("--lengths", required=True, help="start:stop:step of L/a")
+    p.add_argument("--direction", choices=("increasing", "decreasing"), default="increasing")
+    p.add_argument("--impose-flat", action="store_true", help="impose c == 0 (heavy elastica)")
+    p.add_argument("--elements", type=int, default=24, help="finite elements (default 24)")
+    p.add_argument("--json", help="write results to this JSON file")
+    p.set_defaults(func=_cmd_ribbon)
+
+    p = sub.add_parser("map", help="Fig. 6 deflection map over (L/a, b/a)")
+    p.add_argument("--curvature", type=float, required=True, help="a/R")
+    p.add_argument("--lengths", help="start:stop:step of L/a (default 50 in 0.8..2.2)")
+    p.add_argument("--tip-widths", help="start:stop:step of b/a (default 50 in 0..1)")
+    p.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
+    p.add_argument("--modulus", type=float, default=735.0, help="E/(rho g a) (default 735)")
+    p.add_argument("--elements", type=int, default=24, help="finite elements (default 24)")
+    p.add_argument("--workers", type=int, default=0, help="processes (default: up to 2)")
+    p.add_argument("--csv", help="write the tidy table here")
+    p.add_argument("--png", help="draw the colour map here")
+    p.set_defaults(func=_cmd_map)

@@ -1,0 +1,455 @@
+"""Ribbon-like model: large longitudinal rotations plus transverse curvature c(s).
+
+Supplement, section "Reduced-order theory: large plate rotations".  The sheet
+is described by the slope phi(s) of its cross-sectional centre of mass and the
+transverse curvature c(s) of the shallow-cylinder ansatz (eq. wansatz).
+
+What is solved
+--------------
+Instead of the printed Euler--Lagrange system (which carries typos, see
+ERRATA.md), the *reduced energy* E[c, Phi] is discretised and minimised:
+
+    E = int_0^L e(c, c', c'', Phi', phi) ds,
+    Phi = phi - (c p^2)'/4!   (slope of the line t = 0),
+
+with e from inserting the ansatz strains (eqs. strainansatz, bendstrainansatz,
+verified symbolically: E_tt = E_st = 0 and the printed E_ss is exact, tapering
+included) into eq. (asymenergy) and integrating over t exactly (see
+:mod:`._ribbon_kernels`).  Its stationarity conditions are the paper's
+(phODE) and the fourth-order equation for c with the natural conditions at
+s = L, in their corrected form; none of the printed equations is used directly.
+Clamping (eq. cclamp): c(0) = 1/R, c'(0) = 0, Phi(0) = 0, hence
+phi(0) = (c p^2)'(0)/4! = p(0) p'(0)/(12 R), non-zero for tapered sheets
+(ERRATA).  Unknowns are cubic Hermite elements on a fixed grid in S = s/L;
+the stationary point is found by Newton's method with a line search on the
+energy, so every converged state is a local minimum (stable) and a state that
+ceases to exist (fold) is left for the other branch -- the physical jump.
+
+Departures from the printed text
+--------------------------------
+- The printed ODEs (supplement eqs. 50-52) are not implemented: the first
+  carries a spurious trailing double prime and the second's right-hand side
+  inherits it (ERRATA).  Their corrected content, and the natural conditions
+  at s = L, are the weak stationarity conditions of the discrete energy.  The
+  t-moments used agree with the printed M^0_ss, M^2_ss = D p^5 c''/6!,
+  M^1_st, M^0_tt, T^2_ss and T^4_ss (the moment integrals run over
+  [-p/2, p/2], ERRATA).
+- Only the leading-order clamping conditions (eq. cclamp) enter, so the typo
+  in the clamp's e_2 term (R sin(t/R), ERRATA) is immaterial.
+- Gravity acts on the centre of mass: rho g h int p e_3.r ds =
+  rho g h int I(s) sin phi ds (eq. asymenergy); the deflection of the line
+  t = 0 then adds w(L,0) cos phi(L) - w(0,0) cos phi(0).
+- With c free and a flat clamp, Poisson coupling produces a small c, so the
+  model equals the heavy elastica only with ``impose_flat=True`` (ERRATA).
+
+Sign convention: phi < 0 when the sheet droops; the deflection
+
+    d = -[ int_0^L sin phi ds + w(L,0) cos phi(L) - w(0,0) cos phi(0) ],
+    w(s, 0) = -c(s) p(s)^2 / 4!,
+
+is reported positive downward.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from skfem_sheet.params import Sheet, check_range
+from skfem_sheet.reduced._common import POISSON_RATIO, as_sheet, weight_per_area
+from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
+
+__all__ = ["RibbonResult", "ContinuationResult", "ribbon", "ribbon_continuation",
+           "detect_jumps"]
+
+DEFAULT_ELEMENTS = 24
+_BRANCHES = ("curvature", "gravity")
+_DIRECTIONS = ("increasing", "decreasing")
+
+
+@dataclass(frozen=True)
+class RibbonResult:
+    """Equilibrium of the ribbon model at one length.
+
+    Attributes
+    ----------
+    length : float
+        L/a.
+    deflection : float
+        Tip drop of the centre line t = 0, positive downward.
+    converged : bool
+        Newton converged to a stationary point.
+    stable : bool
+        The Hessian there is positive definite (a local energy minimum).
+    iterations : int
+        Newton iterations used.
+    s, c, Phi, phi : ndarray
+        Nodal arclength, transverse curvature, slope of t = 0 and of the centre line.
+    state : ndarray
+        Dof vector on the S = s/L grid (use as ``initial`` of the next solve).
+    """
+
+    length: float
+    deflection: float
+    converged: bool
+    stable: bool
+    iterations: int
+    s: np.ndarray = field(repr=False)
+    c: np.ndarray = field(repr=False)
+    Phi: np.ndarray = field(repr=False)
+    phi: np.ndarray = field(repr=False)
+    state: np.ndarray = field(repr=False)
+
+
+@dataclass(frozen=True)
+class ContinuationResult:
+    """A branch traced by :func:`ribbon_continuation` (arrays in continuation order).
+
+    Attributes
+    ----------
+    lengths, deflection : ndarray
+        L/a and d/a (positive downward).
+    converged, stable, jumped : ndarray of bool
+        Newton converged; local minimum; a discontinuity (branch switch) lies
+        between this length and the previous one.
+    direction : str
+        ``"increasing"`` or ``"decreasing"``.
+    results : tuple of RibbonResult
+    jump_at : ndarray
+        Located jump length at jumped points, NaN elsewhere.
+    """
+
+    lengths: np.ndarray
+    deflection: np.ndarray
+    converged: np.ndarray
+    stable: np.ndarray
+    jumped: np.ndarray
+    direction: str
+    results: tuple = field(repr=False)
+    jump_at: np.ndarray = field(repr=False, default=None)
+
+    @property
+    def jump_lengths(self):
+        """Lengths where the branch jumped (located within 1/64 of the grid step)."""
+        return self.jump_at[self.jumped]
+
+
+# -- pure helpers ------------------------------------------------------------------
+def _free_mask(n_nodes: int, impose_flat: bool):
+    """Free dofs: clamp fixes c, c_S, Phi at node 0; c == 0 fixes all c dofs."""
+    free = np.ones(4 * n_nodes, dtype=bool)
+    free[[0, 1, 2]] = False
+    if impose_flat:
+        free[0::4] = False
+        free[1::4] = False
+    return free
+
+
+def _clamped_state(n_nodes: int, kappa: float, impose_flat: bool):
+    """Initial state c = 1/R, Phi = 0 (c = 0 if flat is imposed)."""
+    x = np.zeros(4 * n_nodes)
+    if not impose_flat:
+        x[0::4] = kappa
+    return x
+
+
+def _nodal_fields(x, S, L, b):
+    """Nodal s, c, Phi, phi from the dof vector (phi = Phi + (c p^2)'/4!)."""
+    c, cS, Phi = x[0::4], x[1::4], x[2::4]
+    p = 1.0 + (b - 1.0) * S
+    dp = (b - 1.0) / L
+    phi = Phi + (cS / L * p**2 + 2.0 * c * p * dp) / 24.0
+    return L * S, c, Phi, phi
+
+
+def _deflection(ops, x, S, L, b):
+    """d = -[int sin phi + w(L,0) cos phi(L) - w(0,0) cos phi(0)], w(s,0) = -c p^2/4!."""
+    q = np.einsum("eqjk,ek->eqj", ops.B, x[ops.dofs])
+    rise = float(np.sum(ops.weight * np.sin(q[..., 4])))
+    _, c, _, phi = _nodal_fields(x, S, L, b)
+    pL = b
+    wL, w0 = -c[-1] * pL**2 / 24.0, -c[0] / 24.0
+    return -(rise + wL * np.cos(phi[-1]) - w0 * np.cos(phi[0]))
+
+
+def _moduli(sheet: Sheet):
+    return sheet.stretching_modulus, sheet.bending_modulus, POISSON_RATIO
+
+
+def _solve_at(sheet, mesh, x0, impose_flat, gravity_scale=1.0, max_iter=100):
+    Y, D, nu = _moduli(sheet)
+    ops = make_operators(mesh, sheet.length, sheet.tip_width, weight_per_area(sheet),
+                         Y, D, nu, gravity_scale)
+    free = _free_mask(mesh.n_elements + 1, impose_flat)
+    x0 = np.array(x0, dtype=float)
+    if not impose_flat:
+        x0[0] = sheet.curvature
+    x0[1] = 0.0
+    x0[2] = 0.0
+    x, conv, stable, its = minimise(ops, x0, free, max_iter=max_iter)
+    return ops, x, conv, stable, its
+
+
+def _result(sheet, mesh, ops, x, conv, stable, its):
+    S = mesh.S_nodes
+    L, b = sheet.length, sheet.tip_width
+    s, c, Phi, phi = _nodal_fields(x, S, L, b)
+    d = _deflection(ops, x, S, L, b)
+    ok = bool(conv and np.isfinite(d))
+    return RibbonResult(L, float(d), ok, bool(stable), int(its), s, c, Phi, phi, x)
+
+
+def _gravity_first(sheet, mesh, impose_flat, n_ramp=10):
+    """Load first, then clamp curvature (the paper's FE protocol for the gravity branch).
+
+    The hanging sheet is solved with a flat clamp, then the clamp curvature is
+    raised to 1/R in ``n_ramp`` steps, each starting from the previous state.
+    """
+    x = _clamped_state(mesh.n_elements + 1, 0.0, True)
+    for lam in (0.25, 0.5, 0.75, 1.0):
+        _, x, _, _, _ = _solve_at(sheet, mesh, x, True, lam)
+    if impose_flat or sheet.curvature == 0.0:
+        return _solve_at(sheet, mesh, x, impose_flat)
+    for kappa in sheet.curvature * np.arange(1, n_ramp + 1) / n_ramp:
+        out = _solve_at(sheet.replace(curvature=kappa), mesh, x, False)
+        x = out[1]
+    return out
+
+
+def _validate_common(branch, n_elements):
+    if branch not in _BRANCHES:
+        raise ValueError(f"branch must be one of {_BRANCHES}, got {branch!r}")
+    n = int(check_range("n_elements", n_elements, 4, 400))
+    if n != n_elements:
+        raise ValueError(f"n_elements must be an integer in [4, 400], got {n_elements!r}")
+    return n
+
+
+def ribbon(sheet, branch: str = "curvature", impose_flat: bool = False,
+           n_elements: int = DEFAULT_ELEMENTS, initial=None) -> RibbonResult:
+    """Solve the ribbon model at one length (supplement, eqs. 50-52 via the energy).
+
+    Parameters
+    ----------
+    sheet : Sheet
+        Sheet parameters (length, tip width, clamp curvature, thickness, modulus).
+    branch : {"curvature", "gravity"}
+        Loading path when ``initial`` is not given, as in the paper's FE
+        protocol: curvature first, then gravity ramped up (curvature-dominated
+        branch); or gravity first on a flat clamp, then the clamp curvature
+        ramped up (gravity-dominated branch).  If the requested branch does
+        not exist at this length the solver ends on the other one.
+    impose_flat : bool
+        Impose c == 0: the model reduces to the heavy elastica (eq. phODE2).
+    n_elements : int
+        Number of cubic Hermite elements on [0, L].
+    initial : RibbonResult or ndarray, optional
+        Previous solution (same ``n_elements``), e.g. at a nearby length.
+
+    Returns
+    -------
+    RibbonResult
+
+    Examples
+    --------
+    >>> from skfem_sheet.params import Sheet
+    >>> r = ribbon(Sheet(length=1.0, curvature=2.5))
+    >>> r.converged, r.stable, r.deflection < 0.1
+    (True, True, True)
+    >>> flat = ribbon(Sheet(length=1.0), impose_flat=True)
+    >>> round(flat.deflection, 3)        # heavy elastica: 0.768
+    0.768
+    """
+    sheet = as_sheet(sheet)
+    n = _validate_common(branch, n_elements)
+    mesh = make_mesh(n)
+    if initial is not None:
+        x0 = initial.state if isinstance(initial, RibbonResult) else np.asarray(initial, float)
+        if x0.shape != (4 * (n + 1),):
+            raise ValueError(f"initial must have {4 * (n + 1)} dofs (n_elements={n}), "
+                             f"got shape {x0.shape}")
+        out = _solve_at(sheet, mesh, x0, impose_flat)
+        return _result(sheet, mesh, *out)
+    if branch == "gravity":
+        return _result(sheet, mesh, *_gravity_first(sheet, mesh, impose_flat))
+    x = _clamped_state(n + 1, sheet.curvature, impose_flat)
+    for lam in (0.0, 0.25, 0.5, 0.75):
+        _, x, _, _, _ = _solve_at(sheet, mesh, x, impose_flat, lam)
+    return _result(sheet, mesh, *_solve_at(sheet, mesh, x, impose_flat))
+
+
+def detect_jumps(deflection, converged=None, abs_tol: float = 0.1):
+    """Flag abrupt changes of a branch traced on a (roughly regular) grid of lengths.
+
+    Point i is a jump if d_i departs by more than ``abs_tol`` (units of a) from
+    the linear extrapolation d_{i-1} + (d_{i-1} - d_{i-2}) of the two previous
+    points (from d_{i-1} alone at the start and right after a jump).  On the
+    paper's grids a smooth branch stays well below 0.1 a, while the branch
+    switch of the rectangle at a/R = 2.5 departs by about 0.25 a.
+
+    Parameters
+    ----------
+    deflection : array_like
+        Deflections in continuation order.
+    converged : array_like of bool, optional
+        Non-converged points are never flagged and are skipped as references.
+    abs_tol : float
+        Threshold on the extrapolation error.
+
+    Examples
+    --------
+    >>> detect_jumps([0.0, 0.01, 0.02, 0.5, 0.52, 0.54]).tolist()
+    [False, False, False, True, False, False]
+    """
+    d = np.asarray(deflection, dtype=float)
+    ok = np.ones(d.size, bool) if converged is None else np.asarray(converged, bool)
+    jumped = np.zeros(d.size, dtype=bool)
+    ref = []                      # indices of the last good points on the branch
+    for i in range(d.size):
+        if not ok[i]:
+            continue
+        if ref:
+            pred = d[ref[-1]]
+            if len(ref) >= 2:
+                pred += d[ref[-1]] - d[ref[-2]]
+            jumped[i] = abs(d[i] - pred) > abs_tol
+        ref = [i] if jumped[i] else (ref + [i])[-2:]
+    return jumped
+
+
+def _order_lengths(lengths, direction):
+    if direction not in _DIRECTIONS:
+        raise ValueError(f"direction must be one of {_DIRECTIONS}, got {direction!r}")
+    L = np.asarray(lengths, dtype=float).ravel()
+    if L.size == 0:
+        raise ValueError("lengths must contain at least one value")
+    for v in L:
+        check_range("lengths", v, 0, 100, lo_open=True)
+    L = np.unique(L)
+    return L if direction == "increasing" else L[::-1]
+
+
+def _march(template, mesh, prev, lengths, impose_flat):
+    """Natural continuation through ``lengths`` from ``prev``; returns the results."""
+    out = []
+    for Li in lengths:
+        sheet = template.replace(length=float(Li))
+        res = _result(sheet, mesh, *_solve_at(sheet, mesh, prev.state, impose_flat))
+        out.append(res)
+        if res.converged:
+            prev = res
+    return out
+
+
+def _locate_jump(template, mesh, prev, L_new, impose_flat, jump_tol, depth=2, substeps=8):
+    """Refine the step prev.length -> L_new; return (final result, jump length or nan).
+
+    The step is re-done in ``substeps`` sub-steps, recursively (``depth``
+    levels) inside the sub-interval with the largest change of deflection.  A
+    genuine discontinuity keeps a change larger than ``jump_tol`` (and at least
+    half of the coarser change) on the finest interval, width step/substeps^depth;
+    a steep but smooth branch does not.
+    """
+    a, b = prev.length, float(L_new)
+    start, final, big = prev, None, None
+    for level in range(depth):
+        Ls = np.linspace(a, b, substeps + 1)[1:]
+        run = _march(template, mesh, start, Ls, impose_flat)
+        if final is None:
+            final = run[-1]
+        d = np.array([start.deflection] + [r.deflection for r in run])
+        ok = np.array([True] + [r.converged for r in run])
+        if not ok.all():
+            return final, float("nan")
+        inc = np.abs(np.diff(d))
+        k = int(np.argmax(inc))
+        if inc[k] < jump_tol or (big is not None and inc[k] < 0.5 * big):
+            return final, float("nan")
+        big = inc[k]
+        start = start if k == 0 else run[k - 1]
+        a, b = start.length, run[k].length
+    return final, 0.5 * (a + b)
+
+
+def ribbon_continuation(sheet_template, lengths, direction: str = "increasing",
+                        impose_flat: bool = False, n_elements: int = DEFAULT_ELEMENTS,
+                        start=None, refine_tol: float = 0.02,
+                        jump_tol: float = 0.03) -> ContinuationResult:
+    """Trace a branch of the ribbon model by natural continuation in L.
+
+    The first length is solved from scratch -- on the curvature-dominated
+    branch when ``direction="increasing"`` (short sheets first), on the
+    gravity-dominated one when ``"decreasing"`` (long sheets first) -- and
+    each next length starts from the previous state on the fixed S = s/L grid.
+    Where the followed branch ends (fold), the energy-decreasing Newton
+    iteration lands on the other branch: the jump.  A step whose deflection
+    departs from the linear extrapolation of the two previous points by more
+    than ``refine_tol`` is re-done in sub-steps (see :func:`_locate_jump`), which
+    both keeps the continuation on its branch and tells a genuine jump
+    (flagged ``jumped``, located to 1/64 of the step in ``jump_at``) from a
+    steep smooth change.  A point whose Newton iteration fails is reported
+    ``converged=False`` and the continuation proceeds from the last converged
+    state.
+
+    Parameters
+    ----------
+    sheet_template : Sheet
+        Parameters other than the length.
+    lengths : array_like
+        Lengths L/a (sorted and de-duplicated according to ``direction``).
+    direction : {"increasing", "decreasing"}
+    impose_flat : bool
+        Impose c == 0 (heavy elastica).
+    n_elements : int
+        Cubic Hermite elements.
+    start : RibbonResult, optional
+        State to continue from instead of a fresh first solve.
+    refine_tol, jump_tol : float
+        Extrapolation error that triggers step refinement, and the smallest
+        deflection change (units of a) counted as a jump.
+
+    Returns
+    -------
+    ContinuationResult
+
+    Examples
+    --------
+    >>> from skfem_sheet.params import Sheet
+    >>> up = ribbon_continuation(Sheet(1.0, curvature=2.5), [1.0, 1.2, 1.4, 1.6])
+    >>> bool(up.converged.all()), up.jump_lengths.round(2).tolist()
+    (True, [1.39])
+    """
+    sheet_template = as_sheet(sheet_template)
+    L = _order_lengths(lengths, direction)
+    n = _validate_common("curvature", n_elements)
+    if start is not None and (not isinstance(start, RibbonResult)
+                              or start.state.shape != (4 * (n + 1),)):
+        raise ValueError(f"start must be a RibbonResult computed with n_elements={n}")
+    refine_tol = check_range("refine_tol", refine_tol, 0, None, lo_open=True)
+    jump_tol = check_range("jump_tol", jump_tol, 0, None, lo_open=True)
+    mesh = make_mesh(n)
+    results, jump_at, good = [], np.full(L.size, np.nan), []
+    prev = start
+    branch = "curvature" if direction == "increasing" else "gravity"
+    for i, Li in enumerate(L):
+        sheet = sheet_template.replace(length=float(Li))
+        if prev is None:
+            res = ribbon(sheet, branch=branch, impose_flat=impose_flat, n_elements=n)
+        else:
+            res = _result(sheet, mesh, *_solve_at(sheet, mesh, prev.state, impose_flat))
+            pred = prev.deflection
+            if len(good) >= 2 and not np.isfinite(jump_at[good[-1]]):
+                r1, r2 = results[good[-1]], results[good[-2]]
+                pred += (r1.deflection - r2.deflection) * (Li - r1.length) / (r1.length - r2.length)
+            if not res.converged or abs(res.deflection - pred) > refine_tol:
+                res, jump_at[i] = _locate_jump(sheet_template, mesh, prev, Li, impose_flat,
+                                               jump_tol)
+        results.append(res)
+        if res.converged:
+            prev = res
+            good.append(i)
+    d = np.array([r.deflection for r in results])
+    conv = np.array([r.converged for r in results])
+    stable = np.array([r.stable for r in results])
+    return ContinuationResult(L, d, conv, stable, np.isfinite(jump_at), direction,
+                              tuple(results), jump_at)

@@ -1,0 +1,238 @@
+"""The public solver: ``solve(sheet, path=..., hmax=...) -> Result``."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from .continuation import PATHS, StepOptions, follow_path
+from .linalg import make_linear_solver
+from .mesh import estimate_dofs, sheet_mesh
+from .model import SheetProblem
+from .newton import NewtonOptions, Stats
+from .observables import tip_deflection
+from .params import Sheet, check_range
+
+__all__ = ["Result", "SolveError", "solve", "MAX_DOFS"]
+
+#: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
+MAX_DOFS = 1_500_000
+
+
+class SolveError(RuntimeError):
+    """A solve that did not reach full load; ``.result`` holds how far it got."""
+
+    def __init__(self, message, result=None):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass(frozen=True)
+class Result:
+    """Outcome of :func:`solve`.
+
+    Attributes
+    ----------
+    sheet : Sheet
+    path : str
+    hmax : float
+    deflection : float
+        Tip deflection d/a, positive downward (at the last converged load if
+        ``converged`` is False).
+    converged : bool
+        True only if the full load (curvature and gravity) was reached.
+    message : str
+        Why not, when not converged.
+    kappa, gravity : float
+        Load reached (curvature a/R and gravity factor).
+    dofs : int
+    newton_iterations, factorizations, load_steps, rejected_steps : int
+    wall_time_s, assembly_s, linear_solve_s : float
+    energy : float
+        Total potential energy at the last converged load.
+    volume_change : float
+        Relative change of the volume, ``int J dV / V - 1``.
+    solver : str
+        Linear-solver back-end used.
+    steps : tuple
+        ``(phase, lam, newton iterations)`` of each accepted step.
+    """
+
+    sheet: Sheet
+    path: str
+    hmax: float
+    deflection: float
+    converged: bool
+    message: str
+    kappa: float
+    gravity: float
+    dofs: int
+    newton_iterations: int
+    factorizations: int
+    load_steps: int
+    rejected_steps: int
+    wall_time_s: float
+    assembly_s: float
+    linear_solve_s: float
+    energy: float
+    volume_change: float
+    solver: str
+    layers: int
+    steps: tuple = ()
+    problem: SheetProblem = field(default=None, repr=False, compare=False)
+    w: np.ndarray = field(default=None, repr=False, compare=False)
+
+    # -- derived fields ------------------------------------------------------
+    @property
+    def displacement(self):
+        """Nodal displacements of the quadratic nodes, shape (n_nodes, 3)."""
+        return self.problem.split(self.w)[0]
+
+    @property
+    def pressure(self):
+        """Vertex pressures in the paper's convention (``mu`` at rest)."""
+        return self.problem.paper_pressure(self.w)
+
+    @property
+    def energy_density(self):
+        """psi/mu = (I_C - 3)/2 per tetrahedron (computed on demand)."""
+        return self.problem.energy_density(self.w)
+
+    def summary(self) -> dict:
+        """JSON-ready summary (the CLI's ``--json`` contents)."""
+        from . import __version__
+
+        s = self.sheet
+        return {
+            "deflection": self.deflection,
+            "converged": self.converged,
+            "message": self.message,
+            "path": self.path,
+            "dofs": self.dofs,
+            "newton_iterations": self.newton_iterations,
+            "factorizations": self.factorizations,
+            "load_steps": self.load_steps,
+            "rejected_steps": self.rejected_steps,
+            "wall_time_s": self.wall_time_s,
+            "linear_solve_s": self.linear_solve_s,
+            "assembly_s": self.assembly_s,
+            "energy": self.energy,
+            "volume_change": self.volume_change,
+            "kappa_reached": self.kappa,
+            "gravity_reached": self.gravity,
+            "solver": self.solver,
+            "params": {"length": s.length, "tip_width": s.tip_width,
+                       "curvature": s.curvature, "thickness": s.thickness,
+                       "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers},
+            "steps": [list(x) for x in self.steps],
+            "version": __version__,
+        }
+
+    def write(self, filename):
+        """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu) or
+        the summary (``.json``)."""
+        from .io import write_result
+
+        write_result(self, filename)
+
+
+@lru_cache(maxsize=8)
+def _problem(sheet: Sheet, hmax: float, layers, quadrature_order: int) -> SheetProblem:
+    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers), quadrature_order)
+
+
+def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
+          layers=None, solver: str = "auto", quadrature_order: int = 2,
+          newton_options: NewtonOptions | None = None,
+          step_options: StepOptions | None = None,
+          on_failure: str = "raise", progress: bool = False) -> Result:
+    """Equilibrium of a clamped, curved sheet under its own weight.
+
+    Parameters
+    ----------
+    sheet : Sheet
+    path : {"curvature-first", "gravity-first"}
+        Load path, which selects the branch in the bistable range.
+    hmax : float
+        Mesh size (in-plane edge length; layers through the thickness are at
+        most ``hmax`` thick).
+    layers : int, optional
+        Number of element layers through the thickness.
+    solver : {"auto", "pardiso", "superlu"}
+        Linear-solver back-end (see :mod:`skfem_sheet.linalg`).
+    quadrature_order : {2, 3, 4}
+    on_failure : {"raise", "return"}
+        If the full load is not reached: raise :class:`SolveError` (default)
+        or return a :class:`Result` with ``converged=False``.
+    progress : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    Result
+
+    Examples
+    --------
+    >>> r = solve(Sheet(length=0.5), hmax=0.1)
+    >>> r.converged, 0.04 < r.deflection < 0.06
+    (True, True)
+    """
+    if not isinstance(sheet, Sheet):
+        raise ValueError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
+    if path not in PATHS:
+        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+    if on_failure not in ("raise", "return"):
+        raise ValueError(f"on_failure must be 'raise' or 'return', got {on_failure!r}")
+    if quadrature_order not in (2, 3, 4):
+        raise ValueError(f"quadrature_order must be one of 2, 3, 4, got {quadrature_order!r}")
+    hmax = check_range("hmax", hmax, 0, None, lo_open=True)
+    ndofs = estimate_dofs(sheet, hmax, layers)
+    if ndofs > MAX_DOFS:
+        raise ValueError(f"hmax must be larger: hmax={hmax:g} gives about {ndofs:,} unknowns, "
+                         f"more than the {MAX_DOFS:,} that fit in memory here")
+    linear = make_linear_solver(solver)
+    newton_options = newton_options or NewtonOptions()
+    step_options = step_options or StepOptions()
+
+    t0 = time.perf_counter()
+    stats = Stats()
+    problem = _problem(sheet, hmax, layers, quadrature_order)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=100, desc=f"{path} L={sheet.length:g} b={sheet.tip_width:g} "
+                   f"a/R={sheet.curvature:g}", unit="%", leave=False)
+
+    def report(frac):
+        if bar is not None:
+            bar.n = round(100 * frac)
+            bar.set_postfix(newton=stats.newton_iterations, refresh=False)
+            bar.refresh()
+
+    try:
+        out = follow_path(problem, path, sheet.curvature, linear,
+                          newton_options=newton_options, step_options=step_options,
+                          stats=stats, progress=report)
+    finally:
+        if bar is not None:
+            bar.close()
+    w = out.w
+    result = Result(
+        sheet=sheet, path=path, hmax=hmax,
+        deflection=tip_deflection(problem, w), converged=out.converged,
+        message=out.reason, kappa=out.kappa, gravity=out.g,
+        dofs=problem.ndof, newton_iterations=stats.newton_iterations,
+        factorizations=stats.factorizations, load_steps=len(out.steps),
+        rejected_steps=out.rejected_steps,
+        wall_time_s=time.perf_counter() - t0, assembly_s=stats.assembly_s,
+        linear_solve_s=stats.linear_solve_s,
+        energy=problem.energy(w, out.g),
+        volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
+        solver=linear.name, layers=problem.sheet_mesh.layers,
+        steps=tuple(out.steps), problem=problem, w=w)
+    if not out.converged and on_failure == "raise":
+        raise SolveError(f"solve did not reach full load: {out.reason}", result)
+    return result

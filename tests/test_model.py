@@ -1,0 +1,109 @@
+import numpy as np
+import pytest
+
+from skfem_sheet import Sheet
+from skfem_sheet.mesh import sheet_mesh
+from skfem_sheet.model import SheetProblem, clamp_displacement, det_inv
+
+
+@pytest.fixture(scope="module")
+def problem():
+    s = Sheet(length=0.8, tip_width=0.5, curvature=2.0)
+    return SheetProblem(s, sheet_mesh(s, 0.2, layers=2))
+
+
+def random_state(problem, seed=0, amp=1e-4):
+    """A smooth, clamp-compatible state (the whole sheet bent into the clamp's
+    cylinder, plus a drop) with small random noise and random pressures."""
+    rng = np.random.default_rng(seed)
+    X = problem.nodes
+    U = clamp_displacement(X[:, 1], X[:, 2], problem.sheet.curvature)
+    U[:, 2] -= 0.1 * X[:, 0] ** 2
+    w = amp * rng.normal(size=problem.ndof)
+    w[: problem.nu_dof] += U.ravel()
+    w[problem.nu_dof:] = 20 * rng.normal(size=problem.n_vertices)
+    w[problem.fixed] = problem.clamp_values(problem.sheet.curvature)
+    return w
+
+
+def test_clamp_maps_midline_to_arc_with_normals_unstretched():
+    kappa = 2.5
+    R = 1 / kappa
+    y = np.linspace(-0.5, 0.5, 11)
+    for z in (-0.015, 0.0, 0.015):
+        X = np.stack([np.zeros_like(y), y, np.full_like(y, z)], -1)
+        x = X + clamp_displacement(y, z, kappa)
+        # centre of the arc at (0, 0, R): distance R - z, angle y/R
+        r = np.hypot(x[:, 1], x[:, 2] - R)
+        np.testing.assert_allclose(r, R - z, rtol=1e-12)
+        np.testing.assert_allclose(np.arctan2(x[:, 1], R - x[:, 2]), y / R, rtol=1e-12)
+    # flat clamp and the smooth small-curvature limit
+    assert np.all(clamp_displacement(y, 0.01, 0.0) == 0)
+    small = clamp_displacement(y, 0.01, 1e-7)
+    assert np.abs(small).max() < 1e-7
+
+
+def test_det_inv_matches_numpy():
+    F = np.eye(3) + 0.3 * np.random.default_rng(1).normal(size=(50, 3, 3))
+    J, Finv = det_inv(F)
+    np.testing.assert_allclose(J, np.linalg.det(F), rtol=1e-12)
+    np.testing.assert_allclose(Finv, np.linalg.inv(F), rtol=1e-10, atol=1e-12)
+
+
+def test_reference_state_is_stress_free(problem):
+    r, Jmin = problem.residual(np.zeros(problem.ndof), 0.0)
+    assert Jmin == pytest.approx(1.0)
+    assert np.abs(r).max() < 1e-12
+
+
+def test_residual_is_the_energy_gradient(problem):
+    w = random_state(problem)
+    v = np.random.default_rng(2).normal(size=problem.ndof)
+    eps = 1e-6
+    dE = (problem.energy(w + eps * v, 0.7) - problem.energy(w - eps * v, 0.7)) / (2 * eps)
+    r, _ = problem.residual(w, 0.7)
+    assert dE == pytest.approx(r @ v, rel=1e-6)
+
+
+def test_tangent_matches_finite_differences_and_is_symmetric(problem):
+    w = random_state(problem, seed=3)
+    rng = np.random.default_rng(4)
+    free = problem.free
+    K = problem.tangent(w)
+    assert abs(K - K.T).max() <= 1e-10 * abs(K).max()
+    for _ in range(3):
+        v = np.zeros(problem.ndof)
+        v[free] = rng.normal(size=len(free))
+        eps = 1e-6
+        fd = (problem.residual(w + eps * v, 0.3)[0] - problem.residual(w - eps * v, 0.3)[0]) / (2 * eps)
+        np.testing.assert_allclose(K @ v[free], fd[free], atol=1e-6 * np.abs(fd).max())
+    # the clamp coupling block too
+    v = np.zeros(problem.ndof)
+    v[problem.fixed] = rng.normal(size=len(problem.fixed))
+    fd = (problem.residual(w + eps * v, 0.3)[0] - problem.residual(w - eps * v, 0.3)[0]) / (2 * eps)
+    np.testing.assert_allclose(problem.clamp_coupling(w) @ v[problem.fixed], fd[free],
+                               atol=1e-6 * np.abs(fd).max())
+
+
+def test_pressure_block_has_explicit_zero_diagonal(problem):
+    K = problem.tangent(random_state(problem))
+    d = K.diagonal()
+    npres = problem.n_vertices
+    assert np.all(d[-npres:] == 0)
+    # every diagonal entry is stored
+    rows = np.repeat(np.arange(K.shape[0]), np.diff(K.indptr))
+    assert np.count_nonzero(rows == K.indices) == K.shape[0]
+
+
+def test_gravity_load_is_the_weight(problem):
+    # sum of the vertical nodal forces = volume (rho g = 1)
+    assert problem.gravity_load[2:problem.nu_dof:3].sum() == pytest.approx(problem.volume0)
+    assert np.abs(problem.gravity_load[0:problem.nu_dof:3]).max() == 0
+
+
+def test_inverted_element_is_reported(problem):
+    w = np.zeros(problem.ndof)
+    U = w[: problem.nu_dof].reshape(-1, 3)
+    U[:, 2] = -2 * problem.nodes[:, 2]  # mirror through the mid-plane: J = -1
+    r, Jmin = problem.residual(w, 1.0)
+    assert Jmin < 0 and np.all(np.isnan(r))

@@ -1,0 +1,129 @@
+"""End-to-end solves on coarse meshes (fast); the paper-resolution checks are
+marked slow and repeated by benchmarks/solver_acceptance.py."""
+import numpy as np
+import pytest
+from scipy.integrate import quad, solve_bvp
+
+from skfem_sheet import Sheet, SolveError, solve
+from skfem_sheet.observables import midline_heights
+
+
+def heavy_elastica(L, thickness=0.03, modulus=735.0):
+    """d of the inextensible heavy elastica with plate modulus D = E h^3 / (12 (1 - nu^2)),
+    D phi'' = -rho g h (L - s) cos phi, phi(0) = phi'(L) = 0 (computed here independently)."""
+    D = modulus * thickness**3 / (12 * (1 - 0.25))
+    s = np.linspace(0, L, 201)
+    sol = solve_bvp(lambda s, y: np.vstack([y[1], -thickness * (L - s) * np.cos(y[0]) / D]),
+                    lambda a, b: np.array([a[0], b[1]]), s, np.zeros((2, s.size)), tol=1e-10,
+                    max_nodes=100000)
+    assert sol.status == 0
+    return -quad(lambda x: np.sin(sol.sol(x)[0]), 0, L, epsabs=1e-13)[0]
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return solve(Sheet(length=0.6), hmax=0.1)
+
+
+def test_flat_sheet_converges_towards_the_heavy_elastica():
+    # the error against the plate elastica must shrink under refinement
+    ref = heavy_elastica(0.6)
+    errs = [abs(solve(Sheet(length=0.6), hmax=h).deflection / ref - 1) for h in (0.2, 0.1)]
+    assert errs[1] < errs[0]
+    assert errs[1] < 0.02
+
+
+def test_volume_is_conserved_and_converged_result_is_honest(flat):
+    assert flat.converged and flat.message == ""
+    assert abs(flat.volume_change) < 1e-6
+    assert flat.deflection > 0  # gravity pulls down
+    assert flat.newton_iterations >= flat.load_steps
+
+
+def test_free_edge_is_symmetric():
+    r = solve(Sheet(length=0.8, tip_width=0.6, curvature=2.0), hmax=0.1)
+    y, z = midline_heights(r.problem, r.w, 0.8)
+    np.testing.assert_allclose(y, -y[::-1], atol=1e-12)
+    np.testing.assert_allclose(z, z[::-1], atol=1e-3 * np.ptp(z) + 1e-9)
+
+
+def test_curvature_stiffens_a_short_sheet():
+    flat = solve(Sheet(length=0.6), hmax=0.1).deflection
+    curved = solve(Sheet(length=0.6, curvature=2.5), hmax=0.1).deflection
+    assert abs(curved) < 0.2 * flat
+
+
+def test_deterministic(flat):
+    again = solve(Sheet(length=0.6), hmax=0.1)
+    assert again.deflection == pytest.approx(flat.deflection, abs=1e-10)
+
+
+def test_superlu_and_default_backend_agree(flat):
+    r = solve(Sheet(length=0.6), hmax=0.1, solver="superlu")
+    assert r.solver == "superlu"
+    assert r.deflection == pytest.approx(flat.deflection, rel=1e-7)
+
+
+def test_failure_is_reported_not_returned_as_an_answer():
+    from skfem_sheet.continuation import StepOptions
+    from skfem_sheet.newton import NewtonOptions
+
+    # one Newton iteration per step and no room to cut the step: cannot converge
+    kw = dict(newton_options=NewtonOptions(max_iterations=1, utol=1e-12, rtol=1e-12),
+              step_options=StepOptions(initial_step=0.5, min_step=0.25, max_step=0.5))
+    with pytest.raises(SolveError) as err:
+        solve(Sheet(length=1.0, curvature=2.0), hmax=0.15, **kw)
+    res = err.value.result
+    assert not res.converged and "phase stopped" in res.message
+    r = solve(Sheet(length=1.0, curvature=2.0), hmax=0.15, on_failure="return", **kw)
+    assert not r.converged and r.message
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(path="sideways"), "path"), (dict(hmax=-1), "hmax"), (dict(hmax=1e-4), "hmax"),
+    (dict(solver="magic"), "solver"), (dict(on_failure="ignore"), "on_failure"),
+    (dict(quadrature_order=7), "quadrature_order"), (dict(layers=0), "layers"),
+])
+def test_bad_arguments(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        solve(Sheet(length=1.0), **kwargs)
+
+
+def test_write_vtu_and_json(tmp_path, flat):
+    import json
+
+    import meshio
+
+    flat.write(tmp_path / "out.vtu")
+    m = meshio.read(tmp_path / "out.vtu")
+    assert set(m.point_data) >= {"displacement", "pressure"}
+    assert "psi_over_mu" in m.cell_data
+    assert np.allclose(m.point_data["displacement"], flat.displacement[: len(m.points)])
+    flat.write(tmp_path / "out.json")
+    data = json.loads((tmp_path / "out.json").read_text())
+    for key in ("deflection", "converged", "path", "dofs", "newton_iterations", "load_steps",
+                "wall_time_s", "linear_solve_s", "assembly_s", "params"):
+        assert key in data
+    assert data["params"]["hmax"] == 0.1 and data["deflection"] == flat.deflection
+
+
+# --------------------------------------------------------------------------------------
+# the paper's resolution (slow)
+# --------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_flat_rectangle_matches_heavy_elastica_at_paper_resolution():
+    r = solve(Sheet(length=1.0), hmax=0.03)
+    assert r.deflection == pytest.approx(heavy_elastica(1.0), rel=5e-3)
+
+
+@pytest.mark.slow
+def test_bistable_rectangle_and_monostable_triangle():
+    up = solve(Sheet(1.3, 1.0, 2.5), path="curvature-first", hmax=0.03)
+    down = solve(Sheet(1.3, 1.0, 2.5), path="gravity-first", hmax=0.03)
+    assert abs(up.deflection) < 0.1 and down.deflection > 0.5
+    t1 = solve(Sheet(1.3, 0.0, 2.5), path="curvature-first", hmax=0.03)
+    t2 = solve(Sheet(1.3, 0.0, 2.5), path="gravity-first", hmax=0.03)
+    assert t1.deflection == pytest.approx(t2.deflection, rel=5e-3)
+    for r in (up, down, t1, t2):
+        assert r.newton_iterations <= 40
+        assert abs(r.volume_change) < 1e-6
