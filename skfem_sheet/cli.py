@@ -121,11 +121,13 @@ def _demo(args):
 
 def main(argv=None) -> int:
     """Entry point; returns the exit code."""
+    from .params import ParameterError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except ValueError as err:
+    except ParameterError as err:
         print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

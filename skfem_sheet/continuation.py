@@ -24,7 +24,7 @@ import numpy as np
 
 from .linalg import LinearSolverError
 from .newton import NewtonOptions, Stats, newton
-from .params import check_range
+from .params import ParameterError, check_range
 
 __all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
 
@@ -47,6 +47,12 @@ class StepOptions:
         Step growth factor after an easy step (``<= easy_iterations``).
     easy_iterations : int
         Number of Newton iterations considered easy (the step then grows).
+    predictor : {"tangent", "hermite"}
+        Tangent predictor, or tangent plus the quadratic term through the
+        previous converged state.
+    elastica_start : bool
+        Start the gravity ramp of a flat clamp at full load from the heavy
+        elastica (see :func:`elastica_state`) instead of stepping from zero.
     intermediate_utol : float
         Newton tolerance on the displacement correction at intermediate load
         steps (units of a); only the final load is solved to the full
@@ -65,6 +71,8 @@ class StepOptions:
     easy_iterations: int = 2
     max_correction: float = 0.25
     intermediate_utol: float = 1e-3
+    predictor: str = "tangent"
+    elastica_start: bool = True
 
     def __post_init__(self):
         check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
@@ -72,6 +80,8 @@ class StepOptions:
         check_range("max_step", self.max_step, self.initial_step, 1)
         check_range("grow", self.grow, 1, 10)
         check_range("max_correction", self.max_correction, 0, None, lo_open=True)
+        if self.predictor not in ("tangent", "hermite"):
+            raise ParameterError(f"predictor must be 'tangent' or 'hermite', got {self.predictor!r}")
 
 
 @dataclass
@@ -91,7 +101,7 @@ class PathOutcome:
 def load_phases(path: str, kappa: float):
     """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs."""
     if path not in PATHS:
-        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+        raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
     curv = ("curvature", lambda lam, g=0.0: (lam * kappa, g))
     grav = ("gravity", lambda lam, k=0.0: (k, lam))
     if path == "curvature-first":
@@ -124,6 +134,37 @@ def _tangent_predictor(problem, w, dkappa, dg, kappa, solver, stats):
     return dw
 
 
+def elastica_state(problem, g):
+    """Initial guess at gravity ``g`` and a flat clamp from the heavy elastica.
+
+    The mid-surface follows the elastica's centre line ``r(s)`` (with the
+    sheet's width profile), material normals stay normal and unstretched:
+    ``x(X, Y, Z) = r(X) + Y e_y + Z n(X)``.  The 3D solution differs from it
+    only by the anticlastic boundary layers and the clamp's Saint-Venant
+    region, so Newton converges from it in a few iterations where plain load
+    stepping from the flat state needs many small steps.
+    Returns ``None`` if the elastica cannot be solved.
+    """
+    from .reduced.elastica import elastica
+
+    sheet = problem.sheet
+    e = elastica(sheet.replace(modulus=sheet.modulus / g, curvature=0.0))
+    if not e.converged or not np.all(np.isfinite(e.phi)):
+        return None
+    s, phi = e.s, e.phi
+    ds = np.diff(s)
+    rx = np.concatenate([[0.0], np.cumsum(0.5 * ds * (np.cos(phi[1:]) + np.cos(phi[:-1])))])
+    rz = np.concatenate([[0.0], np.cumsum(0.5 * ds * (np.sin(phi[1:]) + np.sin(phi[:-1])))])
+    X = problem.nodes
+    ph = np.interp(X[:, 0], s, phi)
+    U = np.stack([np.interp(X[:, 0], s, rx) - X[:, 2] * np.sin(ph) - X[:, 0],
+                  np.zeros(len(X)),
+                  np.interp(X[:, 0], s, rz) + X[:, 2] * (np.cos(ph) - 1.0)], axis=1)
+    w = np.zeros(problem.ndof)
+    w[: problem.nu_dof] = U.ravel()
+    return w
+
+
 def _predict(w, dw, lam, lam_new, prev):
     """Hermite predictor: the tangent ``dw`` at ``lam`` plus the quadratic term
     that makes the curve pass through the previous converged point ``prev``
@@ -135,6 +176,13 @@ def _predict(w, dw, lam, lam_new, prev):
     h0 = lam - lam0
     c = (w0 - w + h0 * dw) / h0**2
     return w + h * dw + h**2 * c
+
+
+def _elastica_jump(problem, solver, stats, final, tight, loose):
+    w = elastica_state(problem, 1.0)
+    if w is None:
+        return None
+    return newton(problem, w, 1.0, solver, tight if final else loose, stats)
 
 
 def _growth(iterations, opts):
@@ -180,6 +228,21 @@ def follow_path(problem, path: str, kappa: float, solver, *,
         lam, step = 0.0, step_options.initial_step
         prev = None  # (lam, w) of the previous converged step of this phase
         last_phase = iphase == len(phases) - 1
+        if (name == "gravity" and load(0.0)[0] == 0.0 and step_options.elastica_start
+                and not np.any(w)):
+            # flat sheet from the reference state: start at full load from the elastica
+            res = _elastica_jump(problem, solver, stats, last_phase, newton_options, loose)
+            if res is not None and res.converged:
+                w, lam = res.w, 1.0
+                out.w, out.kappa, out.g = w, 0.0, 1.0
+                out.steps.append((name, lam, res.iterations))
+                have_factor = True
+                if progress is not None:
+                    progress((iphase + lam) / len(phases))
+            elif res is not None:
+                out.rejected_steps += 1
+                out.rejections.append((name, 1.0, "elastica start: " + res.reason,
+                                       res.iterations, res.corrections))
         while lam < 1.0:
             lam_new = min(1.0, lam + step)
             k_new, g_new = load(lam_new)
@@ -195,7 +258,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 have_factor = True
             dk, dg = _load_rate(problem, name, load, lam)
             dw = _tangent_predictor(problem, w, dk, dg, k_old, solver, stats)
-            w_pred = _predict(w, dw, lam, lam_new, prev)
+            w_pred = _predict(w, dw, lam, lam_new,
+                              prev if step_options.predictor == "hermite" else None)
             w_pred[problem.fixed] = problem.clamp_values(k_new)
             # the branch guard matters once the sheet can be on either branch
             guard = step_options.max_correction if iphase > 0 else np.inf

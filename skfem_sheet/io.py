@@ -6,6 +6,8 @@ import os
 
 import numpy as np
 
+from .params import ParameterError
+
 __all__ = ["write_result", "write_json", "check_writable"]
 
 
@@ -13,12 +15,12 @@ def check_writable(name: str, filename, suffixes=None) -> str:
     """Check up front that ``filename`` can be written (``ValueError`` naming ``name``)."""
     path = os.fspath(filename)
     if suffixes and not path.lower().endswith(tuple(suffixes)):
-        raise ValueError(f"{name} must end with {' or '.join(suffixes)}, got {path!r}")
+        raise ParameterError(f"{name} must end with {' or '.join(suffixes)}, got {path!r}")
     folder = os.path.dirname(os.path.abspath(path)) or "."
     if not os.path.isdir(folder):
-        raise ValueError(f"{name} must be in an existing folder, {folder!r} does not exist")
+        raise ParameterError(f"{name} must be in an existing folder, {folder!r} does not exist")
     if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
-        raise ValueError(f"{name} must be a writable path, {path!r} is not")
+        raise ParameterError(f"{name} must be a writable path, {path!r} is not")
     return path
 
 
@@ -52,7 +54,7 @@ def write_result(result, filename) -> None:
         write_json(result.summary(), path)
         return
     if not path.lower().endswith(".vtu"):
-        raise ValueError(f"filename must end with .vtu or .json, got {path!r}")
+        raise ParameterError(f"filename must end with .vtu or .json, got {path!r}")
     import meshio
 
     problem = result.problem

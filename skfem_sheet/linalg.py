@@ -27,6 +27,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
+
+from .params import ParameterError
 import scipy.sparse as sp
 
 __all__ = ["make_linear_solver", "available_solvers", "SOLVERS", "LinearSolverError"]
@@ -54,12 +56,12 @@ def available_solvers():
 def make_linear_solver(name: str = "auto"):
     """Create a linear-solver back-end by name (see module docstring)."""
     if name not in SOLVERS:
-        raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {name!r}")
+        raise ParameterError(f"solver must be one of {', '.join(SOLVERS)}, got {name!r}")
     if name == "auto":
         name = "pardiso" if _have_pardiso() else "superlu"
     if name == "pardiso":
         if not _have_pardiso():
-            raise ValueError("solver 'pardiso' needs pypardiso: pip install 'skfem_sheet[fast]'")
+            raise ParameterError("solver 'pardiso' needs pypardiso: pip install 'skfem_sheet[fast]'")
         return PardisoSolver()
     return SuperLUSolver()
 

@@ -10,7 +10,11 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["Sheet", "check_finite", "check_range", "POISSON_RATIO"]
+__all__ = ["Sheet", "ParameterError", "check_finite", "check_range", "POISSON_RATIO"]
+
+
+class ParameterError(ValueError):
+    """A bad input: the message names the parameter and the allowed range."""
 
 #: Poisson's ratio of the incompressible neo-Hookean solid.
 POISSON_RATIO = 0.5
@@ -25,9 +29,9 @@ def check_finite(name: str, value) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise ParameterError(f"{name} must be finite, got {value!r}")
     return x
 
 
@@ -47,7 +51,7 @@ def check_range(name: str, value, lo=None, hi=None, *, lo_open=False,
         lo_s = "-inf" if lo is None else f"{lo:g}"
         hi_s = "inf" if hi is None else f"{hi:g}"
         extra = f" ({hint})" if hint else ""
-        raise ValueError(
+        raise ParameterError(
             f"{name} must be in {left}{lo_s}, {hi_s}{right}, got {value!r}{extra}")
     return x
 
@@ -99,7 +103,7 @@ class Sheet:
             hint="h/a; skfem_sheet models thin sheets"))
         set_(self, "modulus", check_range("modulus", self.modulus, 0, 1e9, lo_open=True))
         if self.thickness > 0.5 * self.length:
-            raise ValueError(
+            raise ParameterError(
                 f"thickness must be at most half the length ({0.5 * self.length:g}), "
                 f"got {self.thickness!r}")
 
@@ -173,7 +177,7 @@ class Sheet:
         check_range("tip_width", tip_width, 0, a, hint="0 <= b <= base_width")
         r = float(radius)
         if math.isnan(r) or r <= 0:
-            raise ValueError(f"radius must be in (0, inf], got {radius!r}")
+            raise ParameterError(f"radius must be in (0, inf], got {radius!r}")
         E = check_range("youngs_modulus", youngs_modulus, 0, None, lo_open=True)
         rho = check_range("density", density, 0, None, lo_open=True)
         g = check_range("gravity", gravity, 0, None, lo_open=True)

@@ -22,6 +22,16 @@ def top_surface(result):
     return X, tri, result.energy_density[elem]
 
 
+def _shaded(rgba, faces, light=(-0.4, -0.5, 0.77)):
+    """Lambert shading of face colours (both sides lit)."""
+    n = np.cross(faces[:, 1] - faces[:, 0], faces[:, 2] - faces[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    lam = 0.45 + 0.55 * np.abs(n @ (np.asarray(light) / np.linalg.norm(light)))
+    out = rgba.copy()
+    out[:, :3] *= lam[:, None]
+    return out
+
+
 def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=True):
     """Shaded 3D view of the deformed sheet coloured by psi/mu (paper Fig. 3).
 
@@ -55,8 +65,8 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     vmax = vmax or float(np.percentile(psi, 99)) or 1.0
     norm = colors.Normalize(0.0, vmax)
     cmap = matplotlib.colormaps["viridis"]
-    poly = Poly3DCollection(X[tri], facecolors=cmap(norm(psi)), edgecolors="none",
-                            shade=True, lightsource=colors.LightSource(azdeg=315, altdeg=45))
+    faces = X[tri]
+    poly = Poly3DCollection(faces, facecolors=_shaded(cmap(norm(psi)), faces), linewidths=0)
     ax.add_collection3d(poly)
     lo, hi = X.min(axis=0), X.max(axis=0)
     span = max(hi - lo)

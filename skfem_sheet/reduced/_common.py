@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from skfem_sheet.params import POISSON_RATIO, Sheet
+from skfem_sheet.params import ParameterError, POISSON_RATIO, Sheet
 
 __all__ = ["as_sheet", "weight_per_area", "width_profile", "integrated_profile",
            "POISSON_RATIO"]
@@ -17,7 +17,7 @@ __all__ = ["as_sheet", "weight_per_area", "width_profile", "integrated_profile",
 def as_sheet(sheet) -> Sheet:
     """Return ``sheet`` if it is a :class:`Sheet`, else raise ``ValueError``."""
     if not isinstance(sheet, Sheet):
-        raise ValueError(f"sheet must be a skfem_sheet.params.Sheet, got {type(sheet).__name__}")
+        raise ParameterError(f"sheet must be a skfem_sheet.params.Sheet, got {type(sheet).__name__}")
     return sheet
 
 

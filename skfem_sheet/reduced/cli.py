@@ -27,7 +27,7 @@ import os
 
 import numpy as np
 
-from skfem_sheet.params import Sheet
+from skfem_sheet.params import ParameterError, Sheet
 
 __all__ = ["add_rom_subparser", "parse_range"]
 
@@ -46,20 +46,20 @@ def parse_range(text, name: str = "--lengths"):
     """
     parts = str(text).split(":")
     if len(parts) != 3:
-        raise ValueError(f"{name} must be 'start:stop:step', got {text!r}")
+        raise ParameterError(f"{name} must be 'start:stop:step', got {text!r}")
     try:
         a, b, step = (float(x) for x in parts)
     except ValueError:
-        raise ValueError(f"{name} must be 'start:stop:step' with numbers, got {text!r}") from None
+        raise ParameterError(f"{name} must be 'start:stop:step' with numbers, got {text!r}") from None
     if not all(math.isfinite(v) for v in (a, b, step)):
-        raise ValueError(f"{name} values must be finite, got {text!r}")
+        raise ParameterError(f"{name} values must be finite, got {text!r}")
     if step <= 0:
-        raise ValueError(f"{name} step must be in (0, inf), got {step!r}")
+        raise ParameterError(f"{name} step must be in (0, inf), got {step!r}")
     if b < a:
-        raise ValueError(f"{name} stop must be >= start, got {text!r}")
+        raise ParameterError(f"{name} stop must be >= start, got {text!r}")
     n = int(math.floor((b - a) / step + 1e-9)) + 1
     if n > _MAX_POINTS:
-        raise ValueError(f"{name} must have at most {_MAX_POINTS} points, got {n}")
+        raise ParameterError(f"{name} must have at most {_MAX_POINTS} points, got {n}")
     return np.round(a + step * np.arange(n), 12)
 
 
@@ -161,7 +161,7 @@ def _cmd_map(args) -> int:
     widths = (parse_range(args.tip_widths, "--tip-widths") if args.tip_widths
               else np.linspace(0.0, 1.0, 50))
     if widths.min() < 0 or widths.max() > 1:
-        raise ValueError(f"--tip-widths must be in [0, 1], got {args.tip_widths!r}")
+        raise ParameterError(f"--tip-widths must be in [0, 1], got {args.tip_widths!r}")
     Sheet(length=float(lengths[0]), curvature=args.curvature, thickness=args.thickness,
           modulus=args.modulus)  # validate up front
     workers = args.workers or min(2, os.cpu_count() or 1)

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_bvp
 
+from skfem_sheet.params import ParameterError
 from skfem_sheet.reduced._common import (as_sheet, integrated_profile,
                                          weight_per_area, width_profile)
 
@@ -117,9 +118,9 @@ def elastica(sheet, tol: float = 1e-9, n_nodes: int = 101, max_nodes: int = 1000
     sheet = as_sheet(sheet)
     tol = float(tol)
     if not 0 < tol < 1e-2:
-        raise ValueError(f"tol must be in (0, 0.01), got {tol!r}")
+        raise ParameterError(f"tol must be in (0, 0.01), got {tol!r}")
     if int(n_nodes) < 5:
-        raise ValueError(f"n_nodes must be in [5, inf), got {n_nodes!r}")
+        raise ParameterError(f"n_nodes must be in [5, inf), got {n_nodes!r}")
     s = np.linspace(0.0, sheet.length, int(n_nodes))
     y = np.zeros((3, s.size))
     # Continuation in the load from the straight sheet: a cold start at large

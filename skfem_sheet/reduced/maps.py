@@ -13,7 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from skfem_sheet.params import Sheet, check_range
+from skfem_sheet.params import ParameterError, Sheet, check_range
 from skfem_sheet.reduced._common import as_sheet
 from skfem_sheet.reduced.ribbon import DEFAULT_ELEMENTS, ribbon_continuation
 
@@ -70,7 +70,7 @@ def ribbon_map(curvature: float, lengths, tip_widths, thickness: float = 0.03,
     lengths = np.unique(np.asarray(lengths, dtype=float).ravel())
     widths = np.asarray(tip_widths, dtype=float).ravel()
     if lengths.size == 0 or widths.size == 0:
-        raise ValueError("lengths and tip_widths must be non-empty")
+        raise ParameterError("lengths and tip_widths must be non-empty")
     workers = int(check_range("workers", workers, 1, 64))
     templates = [as_sheet(Sheet(length=float(lengths[0]), tip_width=float(b),
                                 curvature=curvature, thickness=thickness, modulus=modulus))
@@ -97,7 +97,7 @@ def map_grid(rows, direction: str):
     """Arrange rows of one direction as (lengths, tip_widths, D[width, length], J, ok)."""
     sel = [r for r in rows if r["direction"] == direction]
     if not sel:
-        raise ValueError(f"direction must be present in the rows, got {direction!r}")
+        raise ParameterError(f"direction must be present in the rows, got {direction!r}")
     Ls = np.unique([r["length"] for r in sel])
     bs = np.unique([r["tip_width"] for r in sel])
     D = np.full((bs.size, Ls.size), np.nan)

@@ -41,6 +41,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from skfem_sheet.params import ParameterError
 from skfem_sheet.reduced._common import as_sheet
 
 __all__ = ["PersistenceResult", "persistence_length", "persistence_scale",
@@ -143,7 +144,7 @@ def lhat_of_delta(delta: float, rtol: float = 1e-11, n_profile: int = 201):
     """
     delta = float(delta)
     if not 0.0 <= delta <= 1.0 - _MIN_P1:
-        raise ValueError(f"delta must be in [0, {1 - _MIN_P1:g}], got {delta!r}")
+        raise ParameterError(f"delta must be in [0, {1 - _MIN_P1:g}], got {delta!r}")
     P1 = 1.0 - delta
     a1, a2 = P1**-2, -1.1 * delta / P1**3
     s0 = _SIGMA0 * P1
@@ -195,7 +196,7 @@ def persistence_length(sheet, rtol: float = 1e-11, n_profile: int = 201) -> Pers
     sheet = as_sheet(sheet)
     n_profile = int(n_profile)
     if n_profile < 2:
-        raise ValueError(f"n_profile must be in [2, inf), got {n_profile!r}")
+        raise ParameterError(f"n_profile must be in [2, inf), got {n_profile!r}")
     alpha = persistence_scale(sheet.thickness, sheet.curvature)
     asym = persistence_length_asymptotic(sheet)
     empty = np.empty(0)

@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from skfem_sheet.params import Sheet, check_range
+from skfem_sheet.params import ParameterError, Sheet, check_range
 from skfem_sheet.reduced._common import POISSON_RATIO, as_sheet, weight_per_area
 from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
 
@@ -218,10 +218,10 @@ def _gravity_first(sheet, mesh, impose_flat, n_ramp=10):
 
 def _validate_common(branch, n_elements):
     if branch not in _BRANCHES:
-        raise ValueError(f"branch must be one of {_BRANCHES}, got {branch!r}")
+        raise ParameterError(f"branch must be one of {_BRANCHES}, got {branch!r}")
     n = int(check_range("n_elements", n_elements, 4, 400))
     if n != n_elements:
-        raise ValueError(f"n_elements must be an integer in [4, 400], got {n_elements!r}")
+        raise ParameterError(f"n_elements must be an integer in [4, 400], got {n_elements!r}")
     return n
 
 
@@ -266,7 +266,7 @@ def ribbon(sheet, branch: str = "curvature", impose_flat: bool = False,
     if initial is not None:
         x0 = initial.state if isinstance(initial, RibbonResult) else np.asarray(initial, float)
         if x0.shape != (4 * (n + 1),):
-            raise ValueError(f"initial must have {4 * (n + 1)} dofs (n_elements={n}), "
+            raise ParameterError(f"initial must have {4 * (n + 1)} dofs (n_elements={n}), "
                              f"got shape {x0.shape}")
         out = _solve_at(sheet, mesh, x0, impose_flat)
         return _result(sheet, mesh, *out)
@@ -319,10 +319,10 @@ def detect_jumps(deflection, converged=None, abs_tol: float = 0.1):
 
 def _order_lengths(lengths, direction):
     if direction not in _DIRECTIONS:
-        raise ValueError(f"direction must be one of {_DIRECTIONS}, got {direction!r}")
+        raise ParameterError(f"direction must be one of {_DIRECTIONS}, got {direction!r}")
     L = np.asarray(lengths, dtype=float).ravel()
     if L.size == 0:
-        raise ValueError("lengths must contain at least one value")
+        raise ParameterError("lengths must contain at least one value")
     for v in L:
         check_range("lengths", v, 0, 100, lo_open=True)
     L = np.unique(L)
@@ -424,7 +424,7 @@ def ribbon_continuation(sheet_template, lengths, direction: str = "increasing",
     n = _validate_common("curvature", n_elements)
     if start is not None and (not isinstance(start, RibbonResult)
                               or start.state.shape != (4 * (n + 1),)):
-        raise ValueError(f"start must be a RibbonResult computed with n_elements={n}")
+        raise ParameterError(f"start must be a RibbonResult computed with n_elements={n}")
     refine_tol = check_range("refine_tol", refine_tol, 0, None, lo_open=True)
     jump_tol = check_range("jump_tol", jump_tol, 0, None, lo_open=True)
     mesh = make_mesh(n)
