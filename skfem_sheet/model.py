@@ -202,16 +202,17 @@ class SheetProblem:
         bs = np.einsum("eqmi,eqam->eqai", Finv, dphi).reshape(nel, nq, 30)
         wq = self.dx[sel]
         pJ = p * J
-        K = np.zeros((nel, 34, 34))
+        K = np.empty((nel, 34, 34))
+        Kuu = K[:, :30, :30].reshape(nel, 10, 3, 10, 3)  # a view: written in place
         c2 = (wq * (self.mu + pJ))[..., None] * bs
         Y = np.matmul(c2.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
-        Kuu = Y.transpose(0, 1, 4, 3, 2).copy()  # (e, a, i, b, k) <- (e, a, k, b, i)
+        np.copyto(Kuu, Y.transpose(0, 1, 4, 3, 2))  # (e, a, i, b, k) <- (e, a, k, b, i)
         c3 = (wq * pJ)[..., None] * bs
         Kuu -= np.matmul(c3.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
         lap = self.mu * self._lap[sel]
         for i in range(3):
             Kuu[:, :, i, :, i] += lap
-        K[:, :30, :30] = Kuu.reshape(nel, 30, 30)
+        K[:, 30:, 30:] = 0.0
         Kup = -np.matmul(((wq * J)[..., None] * bs).transpose(0, 2, 1), self.phi1[sel])
         K[:, :30, 30:] = Kup
         K[:, 30:, :30] = Kup.transpose(0, 2, 1)
