@@ -60,8 +60,13 @@ class StepOptions:
         close enough to the branch to start the next step.
     max_correction : float
         A step whose first Newton correction moves a node further than this
-        (units of a) is rejected and cut: it guards against silently jumping
-        to another branch.
+        (units of a, times the sheet length when it is longer than 1) is
+        rejected and cut: it guards against silently jumping to another branch.
+    snap_step : float
+        When the steps of the second phase have been cut below this, the branch
+        is taken to end there (a fold): the guard is lifted, Newton gets four
+        times the iterations, and the snap-through is recorded in
+        ``PathOutcome.snaps``.
     """
 
     initial_step: float = 0.25
@@ -70,6 +75,7 @@ class StepOptions:
     grow: float = 2.0
     easy_iterations: int = 2
     max_correction: float = 0.25
+    snap_step: float = 0.02
     intermediate_utol: float = 1e-3
     predictor: str = "tangent"
     elastica_start: bool = True
@@ -96,6 +102,7 @@ class PathOutcome:
     steps: list = field(default_factory=list)  # (phase, lam, iterations) per accepted step
     rejected_steps: int = 0
     rejections: list = field(default_factory=list)  # (phase, lam tried, reason, iterations)
+    snaps: list = field(default_factory=list)  # (phase, lam, kappa, g) where the branch was lost
 
 
 def load_phases(path: str, kappa: float):
@@ -223,6 +230,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
     out = PathOutcome(w=w)
     have_factor = False
+    snapping = False
+    scale = max(1.0, problem.sheet.length)  # displacements grow with the length
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol)
     for iphase, (name, load) in enumerate(phases):
         lam, step = 0.0, step_options.initial_step
@@ -261,13 +270,18 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             w_pred = _predict(w, dw, lam, lam_new,
                               prev if step_options.predictor == "hermite" else None)
             w_pred[problem.fixed] = problem.clamp_values(k_new)
-            # the branch guard matters once the sheet can be on either branch
-            guard = step_options.max_correction if iphase > 0 else np.inf
+            # the branch guard matters once the sheet can be on either branch;
+            # it is lifted when the steps have shrunk to a fold (snap-through)
+            guard = scale * step_options.max_correction if iphase > 0 and not snapping else np.inf
             final = last_phase and lam_new == 1.0
-            res = newton(problem, w_pred, g_new, solver,
-                         newton_options if final else loose, stats,
-                         max_first_increment=guard)
+            opts = newton_options if final else loose
+            if snapping:
+                opts = replace(opts, max_iterations=4 * opts.max_iterations)
+            res = newton(problem, w_pred, g_new, solver, opts, stats, max_first_increment=guard)
             if res.converged:
+                if snapping:
+                    out.snaps.append((name, lam_new, k_new, g_new))
+                    snapping = False
                 prev = (lam, w)
                 w, lam = res.w, lam_new
                 out.w, out.kappa, out.g = w, k_new, g_new
@@ -281,7 +295,10 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             out.rejections.append((name, lam_new, res.reason, res.iterations, res.corrections))
             have_factor = False  # the failed attempt's factorisation is useless
             step *= 0.5
-            if step < step_options.min_step:
+            if iphase > 0 and not snapping and step < step_options.snap_step:
+                # the branch ends here (a fold): let the sheet snap to the other one
+                snapping = True
+            elif step < step_options.min_step:
                 out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
                               f"(kappa={out.kappa:.4g}, g={out.g:.4g}): step below "
                               f"{step_options.min_step:g}; last Newton failure: {res.reason}")

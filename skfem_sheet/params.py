@@ -19,9 +19,9 @@ class ParameterError(ValueError):
 #: Poisson's ratio of the incompressible neo-Hookean solid.
 POISSON_RATIO = 0.5
 
-#: Largest clamp curvature a/R accepted: the clamped base (width 1) is then
-#: bent into a circular arc of angle a/R; at 2 pi it would close on itself.
-MAX_CURVATURE = 2.0 * math.pi * 0.95
+#: Clamp curvatures a/R must stay below this: the clamped base (width 1) is
+#: bent into a circular arc of angle a/R, which closes on itself at 2 pi.
+MAX_CURVATURE = 2.0 * math.pi
 
 
 def check_finite(name: str, value) -> float:
@@ -96,8 +96,8 @@ class Sheet:
             "tip_width", self.tip_width, 0, 1,
             hint="b/a: 1 is a rectangle, 0 a triangle; wider tips are not supported"))
         set_(self, "curvature", check_range(
-            "curvature", self.curvature, 0, MAX_CURVATURE,
-            hint="a/R; near 2*pi the clamped base would wrap onto itself"))
+            "curvature", self.curvature, 0, MAX_CURVATURE, hi_open=True,
+            hint="a/R; at 2*pi the clamped base would wrap onto itself"))
         set_(self, "thickness", check_range(
             "thickness", self.thickness, 0, 0.5, lo_open=True,
             hint="h/a; skfem_sheet models thin sheets"))

@@ -28,7 +28,7 @@ def test_from_si_papers_silicone():
 @pytest.mark.parametrize("kwargs, name", [
     (dict(length=0), "length"), (dict(length=-1), "length"), (dict(length=float("nan")), "length"),
     (dict(length=1, tip_width=1.5), "tip_width"), (dict(length=1, tip_width=-0.1), "tip_width"),
-    (dict(length=1, curvature=-1), "curvature"), (dict(length=1, curvature=6.2), "curvature"),
+    (dict(length=1, curvature=-1), "curvature"), (dict(length=1, curvature=6.3), "curvature"),
     (dict(length=1, thickness=0), "thickness"), (dict(length=1, thickness=float("inf")), "thickness"),
     (dict(length=1, modulus=-5), "modulus"), (dict(length="abc"), "length"),
     (dict(length=0.04, thickness=0.03), "thickness"),

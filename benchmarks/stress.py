@@ -1,0 +1,124 @@
+"""Stress test of the 3D solver over the whole parameter space (issue 5).
+
+    python benchmarks/stress.py [--n 100] [--seed 1] [--hmax 0.1] [--out stress.jsonl]
+
+A seeded random sample of ``--n`` points over L/a in [0.2, 3], b/a in [0, 1],
+a/R in [0, 6], plus the corners (sharp tip, a/R = 6, very short and very long
+sheets, thickness 0.01 and 0.06, modulus 100 and 1e4), each solved along both
+load paths at a coarse mesh.  Every solve ends as
+
+- ``converged``  full load reached;
+- ``failed``     cleanly reported failure (``converged=False`` with the last
+                 converged load and the reason);
+- ``crash``      any exception escaping ``solve`` (a bug).
+
+Results are appended to a JSON-lines file as they finish, so an interrupted
+run resumes where it stopped (finished points are skipped).  A table and a
+summary line are printed at the end.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+import traceback
+
+import numpy as np
+
+from skfem_sheet import Sheet, solve
+from skfem_sheet.continuation import PATHS
+
+
+def sample(n, seed):
+    rng = np.random.default_rng(seed)
+    pts = [dict(length=float(L), tip_width=float(b), curvature=float(k), thickness=0.03,
+                modulus=735.0, kind="random")
+           for L, b, k in zip(rng.uniform(0.2, 3.0, n), rng.uniform(0, 1, n), rng.uniform(0, 6, n))]
+    corners = [
+        dict(length=1.3, tip_width=0.0, curvature=6.0),
+        dict(length=1.3, tip_width=1.0, curvature=6.0),
+        dict(length=0.2, tip_width=1.0, curvature=2.5),
+        dict(length=0.2, tip_width=0.0, curvature=6.0),
+        dict(length=3.0, tip_width=1.0, curvature=2.5),
+        dict(length=3.0, tip_width=0.0, curvature=6.0),
+        dict(length=3.0, tip_width=1.0, curvature=0.0),
+        dict(length=1.3, tip_width=1.0, curvature=2.5, thickness=0.01),
+        dict(length=1.3, tip_width=1.0, curvature=2.5, thickness=0.06),
+        dict(length=1.3, tip_width=1.0, curvature=2.5, modulus=100.0),
+        dict(length=1.3, tip_width=1.0, curvature=2.5, modulus=1e4),
+        dict(length=1.3, tip_width=0.0, curvature=0.0, modulus=100.0),
+    ]
+    for c in corners:
+        pts.append(dict(dict(thickness=0.03, modulus=735.0), **c, kind="corner"))
+    return pts
+
+
+def key(p, path):
+    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
+                       p["modulus"], path])
+
+
+def run_point(p, path, hmax):
+    sheet = Sheet(length=p["length"], tip_width=p["tip_width"], curvature=p["curvature"],
+                  thickness=p["thickness"], modulus=p["modulus"])
+    t0 = time.perf_counter()
+    try:
+        r = solve(sheet, path=path, hmax=min(hmax, sheet.length / 2), on_failure="return")
+    except Exception as err:  # noqa: BLE001 - a crash is what this benchmark counts
+        return dict(status="crash", error=f"{type(err).__name__}: {err}",
+                    traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
+    return dict(status="converged" if r.converged else "failed", deflection=r.deflection,
+                message=r.message, kappa_reached=r.kappa, gravity_reached=r.gravity,
+                newton_iterations=r.newton_iterations, load_steps=r.load_steps,
+                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=100)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--hmax", type=float, default=0.1)
+    ap.add_argument("--out", default="stress.jsonl")
+    args = ap.parse_args(argv)
+    from tqdm.auto import tqdm
+
+    done = {}
+    if os.path.exists(args.out):
+        with open(args.out) as f:
+            for line in f:
+                try:
+                    rec = json.loads(line)
+                except json.JSONDecodeError:  # a line cut by a kill: recompute it
+                    continue
+                done[rec["key"]] = rec
+    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
+    with open(args.out, "a") as f:
+        for p, path in tqdm(todo, desc="stress", unit="solve"):
+            k = key(p, path)
+            if k in done:
+                continue
+            rec = dict(key=k, path=path, **p, **run_point(p, path, args.hmax))
+            f.write(json.dumps(rec, default=float) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+            done[k] = rec
+    recs = [done[key(p, path)] for p, path in todo]
+    print(f"{'kind':7s} {'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>5s} {'E':>6s} {'path':16s} "
+          f"{'status':9s} {'d/a':>8s} {'newton':>6s} {'s':>6s}  reason")
+    for r in recs:
+        d = f"{r['deflection']:8.4f}" if "deflection" in r else " " * 8
+        print(f"{r['kind']:7s} {r['length']:5.2f} {r['tip_width']:5.2f} {r['curvature']:5.2f} "
+              f"{r['thickness']:5.3f} {r['modulus']:6.0f} {r['path']:16s} {r['status']:9s} {d} "
+              f"{r.get('newton_iterations', 0):6d} {r['wall_time_s']:6.1f}  "
+              f"{r.get('message') or r.get('error', '')}")
+    rand = [r for r in recs if r["kind"] == "random"]
+    count = {s: sum(r["status"] == s for r in recs) for s in ("converged", "failed", "crash")}
+    rate = sum(r["status"] == "converged" for r in rand) / max(1, len(rand))
+    print(f"\nsummary: {len(recs)} solves, {count['converged']} converged, {count['failed']} "
+          f"failed cleanly, {count['crash']} crashed; random points converged: "
+          f"{100 * rate:.1f}% of {len(rand)}")
+    return 1 if count["crash"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
