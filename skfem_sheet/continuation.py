@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .linalg import LinearSolverError
-from .newton import NewtonOptions, Stats, newton
+from .newton import NewtonOptions, Stats, newton, pseudo_transient
 from .params import ParameterError, check_range
 
 __all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
@@ -64,9 +64,9 @@ class StepOptions:
         rejected and cut: it guards against silently jumping to another branch.
     snap_step : float
         When the steps of the second phase have been cut below this, the branch
-        is taken to end there (a fold): the guard is lifted, Newton gets four
-        times the iterations, and the snap-through is recorded in
-        ``PathOutcome.snaps``.
+        is taken to end there (a fold): the step is solved by pseudo-transient
+        continuation, which lets the sheet snap to the other branch, and the
+        snap-through is recorded in ``PathOutcome.snaps``.
     """
 
     initial_step: float = 0.25
@@ -276,8 +276,14 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             final = last_phase and lam_new == 1.0
             opts = newton_options if final else loose
             if snapping:
-                opts = replace(opts, max_iterations=4 * opts.max_iterations)
-            res = newton(problem, w_pred, g_new, solver, opts, stats, max_first_increment=guard)
+                res = pseudo_transient(problem, w_pred, g_new, solver, opts, stats)
+                if res.converged and not final:
+                    # finish with plain Newton (sets up the factorisation at the
+                    # new state for the next predictor)
+                    res = newton(problem, res.w, g_new, solver, opts, stats)
+            else:
+                res = newton(problem, w_pred, g_new, solver, opts, stats,
+                             max_first_increment=guard)
             if res.converged:
                 if snapping:
                     out.snaps.append((name, lam_new, k_new, g_new))

@@ -229,6 +229,12 @@ class SheetProblem:
         nf = self.n_free
         return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
 
+    def mass(self):
+        """Displacement mass matrix ``int phi_a phi_b delta_ik`` on the pattern of
+        :meth:`tangent` (zero on the pressure block)."""
+        nf = self.n_free
+        return sp.csr_matrix((self.mass_data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
+
     def clamp_coupling(self, w):
         """``K_fd``: free rows, clamped columns (only clamp elements are computed)."""
         Ke = self.element_matrices(w, self.clamp_elements).ravel()
@@ -311,6 +317,13 @@ def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
     fg = np.zeros(self.ndof)
     np.add.at(fg, 3 * en + 2, np.einsum("eq,eqa->ea", w, self.phi2))
     self.gravity_load = fg  # d/dg of the residual
+    # displacement mass matrix on the tangent's pattern (pseudo-transient shift)
+    mass = np.einsum("eq,eqa,eqb->eab", w, self.phi2, self.phi2)
+    Me = np.zeros((len(w), 34, 34))
+    Mv = Me[:, :30, :30].reshape(len(w), 10, 3, 10, 3)
+    for i in range(3):
+        Mv[:, :, i, :, i] = mass
+    self.mass_data = self._scatter_ff @ Me.ravel()
     self.volume0 = float(w.sum())
 
     return vars(self)

@@ -19,7 +19,7 @@ import numpy as np
 
 from .linalg import LinearSolverError
 
-__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton"]
+__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient"]
 
 
 @dataclass(frozen=True)
@@ -184,3 +184,64 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
             if float(np.abs(dbar[nu_free]).max()) <= options.utol:
                 return NewtonResult(w, True, it + 1, "", history, first, corrections)
     return NewtonResult(w, False, options.max_iterations, "max iterations", history, first, corrections)
+
+
+def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,
+                     shift=100.0, max_iterations=60) -> NewtonResult:
+    """Pseudo-transient continuation to a stable equilibrium at gravity ``g``.
+
+    Used where a branch ends at a fold and the sheet must snap to the other
+    branch, which plain Newton cannot reach.  Iterates (Kelley & Keyes, SIAM
+    J. Numer. Anal. 35, 1998)::
+
+        (K(w) + sigma M) dw = -r(w),      sigma_{k+1} = sigma_k |r_k| / |r_{k-1}|
+
+    with the displacement mass matrix ``M``: a damped, gradient-flow-like path
+    that is drawn to stable equilibria, turning into Newton (``sigma -> 0``)
+    as the residual falls.  Steps that invert an element are halved.
+    Converged on the same test as :func:`newton` once ``sigma`` is negligible.
+    """
+    import scipy.sparse as sp
+
+    free = problem.free
+    nu_free = free < problem.nu_dof
+    rref = float(np.linalg.norm(problem.gravity_load[free]))
+    M = problem.mass_data
+    w = w.copy()
+    r, Jmin = _timed(stats, "assembly_s", problem.residual, w, g)
+    if not Jmin > 0:
+        return NewtonResult(w, False, 0, "inverted element in the initial guess")
+    rn = float(np.linalg.norm(r[free]))
+    history, corrections = [rn], []
+    sigma = shift
+    for it in range(max_iterations):
+        K = _timed(stats, "assembly_s", problem.tangent, w)
+        A = sp.csr_matrix((K.data + sigma * M, K.indices, K.indptr), shape=K.shape)
+        try:
+            _timed(stats, "linear_solve_s", solver.factorize, A)
+            delta = _timed(stats, "linear_solve_s", solver.solve, -r[free])
+        except LinearSolverError:
+            sigma *= 10.0  # singular: more damping
+            continue
+        stats.factorizations += 1
+        stats.newton_iterations += 1
+        corrections.append(float(np.abs(delta[nu_free]).max()))
+        alpha = 1.0
+        for _ in range(options.max_halvings + 1):
+            wt = w.copy()
+            wt[free] += alpha * delta
+            rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
+            if Jmin > 0 and np.all(np.isfinite(rt)):
+                break
+            alpha *= 0.5
+        else:
+            return NewtonResult(w, False, it + 1, "inverted element", history, 0.0, corrections)
+        rnt = float(np.linalg.norm(rt[free]))
+        # switched evolution relaxation, bounded to stay well conditioned
+        sigma = float(np.clip(sigma * rnt / max(rn, 1e-300), 1e-12, 1e6))
+        w, r, rn = wt, rt, rnt
+        history.append(rn)
+        if sigma < 1e-6 and rn <= options.rtol * rref and corrections[-1] * alpha <= options.utol:
+            return NewtonResult(w, True, it + 1, "", history, 0.0, corrections)
+    return NewtonResult(w, False, max_iterations, "pseudo-transient iteration did not settle",
+                        history, 0.0, corrections)

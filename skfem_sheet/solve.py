@@ -58,6 +58,9 @@ class Result:
         Linear-solver back-end used.
     steps : tuple
         ``(phase, lam, newton iterations)`` of each accepted step.
+    snaps : tuple
+        ``(phase, lam, kappa, g)`` where the followed branch ended at a fold and
+        the sheet snapped to the other one (empty if the branch held).
     """
 
     sheet: Sheet
@@ -81,6 +84,7 @@ class Result:
     solver: str
     layers: int
     steps: tuple = ()
+    snaps: tuple = ()
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -127,6 +131,7 @@ class Result:
                        "curvature": s.curvature, "thickness": s.thickness,
                        "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers},
             "steps": [list(x) for x in self.steps],
+            "snaps": [list(x) for x in self.snaps],
             "version": __version__,
         }
 
@@ -232,7 +237,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         energy=problem.energy(w, out.g),
         volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
         solver=linear.name, layers=problem.sheet_mesh.layers,
-        steps=tuple(out.steps), problem=problem, w=w)
+        steps=tuple(out.steps), snaps=tuple(out.snaps), problem=problem, w=w)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
