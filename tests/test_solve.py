@@ -127,3 +127,15 @@ def test_bistable_rectangle_and_monostable_triangle():
     for r in (up, down, t1, t2):
         assert r.newton_iterations <= 40
         assert abs(r.volume_change) < 1e-6
+
+
+def test_lost_branch_snaps_and_says_so():
+    # a/R = 6, L/a = 1.3 is below the pop-up length: the drooped branch followed by
+    # gravity-first ends at a fold during the curvature ramp and the sheet pops up
+    # to the only (aloft) equilibrium, the one curvature-first finds directly
+    sheet = Sheet(1.3, 1.0, 6.0)
+    up = solve(sheet, path="curvature-first", hmax=0.1)
+    popped = solve(sheet, path="gravity-first", hmax=0.1)
+    assert up.snaps == ()
+    assert len(popped.snaps) == 1 and popped.snaps[0][0] == "curvature"
+    assert popped.deflection == pytest.approx(up.deflection, abs=1e-4)
