@@ -42,7 +42,7 @@ def main(argv=None):
         r = solve(sheet, path=path, hmax=args.hmax, solver=args.solver, on_failure="return")
         y, z = midline_heights(r.problem, r.w, sheet.length)
         asym = float(np.abs(z - z[::-1]).max())
-        row = dict(case=name, path=path, **r.summary(), free_edge_asymmetry=asym)
+        row = dict(r.summary(), case=name, free_edge_asymmetry=asym)
         rows.append(row)
         print(f"{name:15s} {path:16s} {r.deflection:9.5f} {r.newton_iterations:6d} "
               f"{r.load_steps:5d} {r.wall_time_s:7.1f} {r.linear_solve_s:8.1f} "
