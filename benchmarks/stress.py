@@ -79,7 +79,11 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="stress.jsonl")
+    ap.add_argument("--shard", default="0:1",
+                    help="k:n runs every n-th solve starting at k (several processes can "
+                         "share one --out file; a last run without --shard prints the table)")
     args = ap.parse_args(argv)
+    k_shard, n_shard = (int(x) for x in args.shard.split(":"))
     from tqdm.auto import tqdm
 
     done = {}
@@ -92,8 +96,9 @@ def main(argv=None):
                     continue
                 done[rec["key"]] = rec
     todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
+    mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
     with open(args.out, "a") as f:
-        for p, path in tqdm(todo, desc="stress", unit="solve"):
+        for p, path in tqdm(mine, desc="stress", unit="solve"):
             k = key(p, path)
             if k in done:
                 continue
@@ -102,6 +107,8 @@ def main(argv=None):
             f.flush()
             os.fsync(f.fileno())
             done[k] = rec
+    if n_shard > 1:
+        return 0
     recs = [done[key(p, path)] for p, path in todo]
     print(f"{'kind':7s} {'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>5s} {'E':>6s} {'path':16s} "
           f"{'status':9s} {'d/a':>8s} {'newton':>6s} {'s':>6s}  reason")
