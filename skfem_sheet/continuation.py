@@ -120,7 +120,7 @@ def load_phases(path: str, kappa: float):
     return phases
 
 
-def _load_rate(problem, phase, load, lam, eps=1e-6):
+def _load_rate(load, lam, eps=1e-6):
     """d(kappa, g)/dlam by a difference (the loads are linear in lam)."""
     k0, g0 = load(lam)
     k1, g1 = load(lam + eps)
@@ -265,7 +265,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                     return out
                 stats.factorizations += 1
                 have_factor = True
-            dk, dg = _load_rate(problem, name, load, lam)
+            dk, dg = _load_rate(load, lam)
             dw = _tangent_predictor(problem, w, dk, dg, k_old, solver, stats)
             w_pred = _predict(w, dw, lam, lam_new,
                               prev if step_options.predictor == "hermite" else None)

@@ -62,9 +62,6 @@ class Stats:
     assembly_s: float = 0.0
     linear_solve_s: float = 0.0
 
-    def as_dict(self):
-        return dict(self.__dict__)
-
 
 @dataclass
 class NewtonResult:
