@@ -49,12 +49,10 @@ def write_result(result, filename) -> None:
     ``displacement`` (apply "Warp By Vector" in ParaView to see the deformed
     sheet) and ``pressure`` (paper convention), and cell data ``psi_over_mu``.
     """
-    path = os.fspath(filename)
+    path = check_writable("filename", filename, [".vtu", ".json"])
     if path.lower().endswith(".json"):
         write_json(result.summary(), path)
         return
-    if not path.lower().endswith(".vtu"):
-        raise ParameterError(f"filename must end with .vtu or .json, got {path!r}")
     import meshio
 
     problem = result.problem

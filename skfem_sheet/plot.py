@@ -50,6 +50,10 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     """
     import matplotlib
 
+    if filename is not None:
+        from .io import check_writable
+
+        check_writable("filename", filename, [".png", ".pdf", ".svg"])
     if filename is not None and ax is None:
         matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt

@@ -105,6 +105,9 @@ def test_write_vtu_and_json(tmp_path, flat):
                 "wall_time_s", "linear_solve_s", "assembly_s", "params"):
         assert key in data
     assert data["params"]["hmax"] == 0.1 and data["deflection"] == flat.deflection
+    for bad in (tmp_path / "out.txt", tmp_path / "missing" / "out.vtu"):
+        with pytest.raises(ValueError, match="filename"):
+            flat.write(bad)
 
 
 # --------------------------------------------------------------------------------------
