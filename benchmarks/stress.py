@@ -73,6 +73,23 @@ def run_point(p, path, hmax):
                 rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
 
 
+def _read(out):
+    done = {}
+    if os.path.exists(out):
+        with open(out) as f:
+            for line in f:
+                try:
+                    rec = json.loads(line)
+                except json.JSONDecodeError:  # a line cut by a kill: recompute it
+                    continue
+                done[rec["key"]] = rec
+    return done
+
+
+def _finished(out):
+    return set(_read(out))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=100)
@@ -82,25 +99,21 @@ def main(argv=None):
     ap.add_argument("--shard", default="0:1",
                     help="k:n runs every n-th solve starting at k (several processes can "
                          "share one --out file; a last run without --shard prints the table)")
+    ap.add_argument("--reverse", action="store_true",
+                    help="work through the shard from its end (a second worker on a shard)")
     args = ap.parse_args(argv)
     k_shard, n_shard = (int(x) for x in args.shard.split(":"))
     from tqdm.auto import tqdm
 
-    done = {}
-    if os.path.exists(args.out):
-        with open(args.out) as f:
-            for line in f:
-                try:
-                    rec = json.loads(line)
-                except json.JSONDecodeError:  # a line cut by a kill: recompute it
-                    continue
-                done[rec["key"]] = rec
+    done = _read(args.out)
     todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
     mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
+    if args.reverse:
+        mine = mine[::-1]
     with open(args.out, "a") as f:
         for p, path in tqdm(mine, desc="stress", unit="solve"):
             k = key(p, path)
-            if k in done:
+            if k in done or (args.reverse and k in _finished(args.out)):
                 continue
             rec = dict(key=k, path=path, **p, **run_point(p, path, args.hmax))
             f.write(json.dumps(rec, default=float) + "\n")
