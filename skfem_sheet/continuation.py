@@ -109,12 +109,12 @@ def load_phases(path: str, kappa: float):
     """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs."""
     if path not in PATHS:
         raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
-    curv = ("curvature", lambda lam, g=0.0: (lam * kappa, g))
-    grav = ("gravity", lambda lam, k=0.0: (k, lam))
     if path == "curvature-first":
-        phases = [curv, ("gravity", lambda lam: (kappa, lam))]
+        phases = [("curvature", lambda lam: (lam * kappa, 0.0)),
+                  ("gravity", lambda lam: (kappa, lam))]
     else:
-        phases = [grav, ("curvature", lambda lam: (lam * kappa, 1.0))]
+        phases = [("gravity", lambda lam: (0.0, lam)),
+                  ("curvature", lambda lam: (lam * kappa, 1.0))]
     if kappa == 0.0:
         phases = [p for p in phases if p[0] == "gravity"]
     return phases

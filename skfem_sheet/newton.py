@@ -1,14 +1,13 @@
-"""Newton-Raphson for one load ``(kappa, g)``, with a backtracking line search.
+"""Newton-Raphson for one load ``(kappa, g)``, and pseudo-transient continuation.
 
-Convergence needs both a small residual and a small last increment::
+Convergence needs both a small residual and a small next increment::
 
     ||r_free||_2 <= rtol * ||f_gravity||_2   and   max |du| <= utol
 
 (``f_gravity`` is the discrete weight vector at full gravity, the natural force
 scale).  Every trial point is checked for inverted elements (``det F <= 0``)
-and NaN; the line search halves the step on those and on an insufficient
-decrease of ``||r||``.  The result says honestly whether it converged and why
-not.
+and NaN, and the step is halved on those.  The result says honestly whether it
+converged and why not.
 """
 from __future__ import annotations
 
@@ -35,7 +34,8 @@ class NewtonOptions:
     max_iterations : int
         Give up (and let the load stepping cut the step) after this many.
     max_halvings : int
-        Line-search step halvings before the iteration is declared stalled.
+        Step halvings on trial points with an inverted element (or NaN)
+        before the iteration fails.
     """
 
     rtol: float = 1e-4
@@ -119,8 +119,8 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     -------
     NewtonResult
         ``w`` is the last iterate; ``converged`` is False with a ``reason``
-        ("inverted element", "NaN", "stalled", "max iterations", "singular
-        tangent", "first correction too large") otherwise.
+        ("inverted element", "NaN ...", "diverging", "max iterations",
+        "singular tangent", "first correction too large") otherwise.
     """
     free = problem.free
     nu_free = free < problem.nu_dof  # displacement part of the free dofs
@@ -151,12 +151,12 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         stats.newton_iterations += 1
         if not np.all(np.isfinite(delta)):
             return NewtonResult(w, False, it + 1, "NaN in the Newton increment", history, first, corrections)
+        corrections.append(float(np.abs(delta[nu_free]).max()))
         if it == 0:
-            first = float(np.abs(delta[nu_free]).max())
+            first = corrections[0]
             if first > max_first_increment:
                 return NewtonResult(w, False, 1, "first correction too large "
                                     f"({first:.3g} > {max_first_increment:.3g})", history, first, corrections)
-        corrections.append(float(np.abs(delta[nu_free]).max()))
         # Corrections of a thin sheet are often non-monotone for a few
         # iterations (a bending step leaves a membrane residual for the next
         # one): only a correction far beyond the first one counts as divergence.
@@ -228,6 +228,7 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
             wt = w.copy()
             wt[free] += alpha * delta
             rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
+            stats.residual_evaluations += 1
             if Jmin > 0 and np.all(np.isfinite(rt)):
                 break
             alpha *= 0.5
