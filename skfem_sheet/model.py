@@ -229,12 +229,6 @@ class SheetProblem:
         nf = self.n_free
         return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
 
-    def mass(self):
-        """Displacement mass matrix ``int phi_a phi_b delta_ik`` on the pattern of
-        :meth:`tangent` (zero on the pressure block)."""
-        nf = self.n_free
-        return sp.csr_matrix((self.mass_data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
-
     def clamp_coupling(self, w):
         """``K_fd``: free rows, clamped columns (only clamp elements are computed)."""
         Ke = self.element_matrices(w, self.clamp_elements).ravel()

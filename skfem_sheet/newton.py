@@ -82,6 +82,22 @@ def _timed(stats, attr, fn, *args):
         setattr(stats, attr, getattr(stats, attr) + time.perf_counter() - t)
 
 
+def _admissible_step(problem, w, delta, g, max_halvings, stats):
+    """``w + alpha delta`` on the free dofs with the largest ``alpha = 2^-k``
+    (``k <= max_halvings``) whose residual is finite and whose elements are not
+    inverted.  Returns ``(w_new, r_new, alpha)``, or ``None`` if there is none."""
+    alpha = 1.0
+    for _ in range(max_halvings + 1):
+        wt = w.copy()
+        wt[problem.free] += alpha * delta
+        rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
+        stats.residual_evaluations += 1
+        if Jmin > 0 and np.all(np.isfinite(rt)):
+            return wt, rt, alpha
+        alpha *= 0.5
+    return None
+
+
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
            max_first_increment=np.inf) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
@@ -162,18 +178,10 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         # one): only a correction far beyond the first one counts as divergence.
         if it >= 2 and corrections[-1] > max(10.0 * first, 0.1):
             return NewtonResult(w, False, it + 1, "diverging", history, first, corrections)
-        alpha = 1.0
-        for _ in range(options.max_halvings + 1):
-            wt = w.copy()
-            wt[free] += alpha * delta
-            rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
-            stats.residual_evaluations += 1
-            if Jmin > 0 and np.all(np.isfinite(rt)):
-                break
-            alpha *= 0.5
-        else:
+        step = _admissible_step(problem, w, delta, g, options.max_halvings, stats)
+        if step is None:
             return NewtonResult(w, False, it + 1, "inverted element", history, first, corrections)
-        w, r = wt, rt
+        w, r, _ = step
         rn = float(np.linalg.norm(r[free]))
         history.append(rn)
         if rn <= options.rtol * rref:
@@ -223,17 +231,10 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
         stats.factorizations += 1
         stats.newton_iterations += 1
         corrections.append(float(np.abs(delta[nu_free]).max()))
-        alpha = 1.0
-        for _ in range(options.max_halvings + 1):
-            wt = w.copy()
-            wt[free] += alpha * delta
-            rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
-            stats.residual_evaluations += 1
-            if Jmin > 0 and np.all(np.isfinite(rt)):
-                break
-            alpha *= 0.5
-        else:
+        step = _admissible_step(problem, w, delta, g, options.max_halvings, stats)
+        if step is None:
             return NewtonResult(w, False, it + 1, "inverted element", history, 0.0, corrections)
+        wt, rt, alpha = step
         rnt = float(np.linalg.norm(rt[free]))
         # switched evolution relaxation, bounded to stay well conditioned
         sigma = float(np.clip(sigma * rnt / max(rn, 1e-300), 1e-12, 1e6))
