@@ -59,13 +59,23 @@ def build_parser():
     p.set_defaults(curvature=2.5)
     _add_solve_args(p, hmax=0.04)
     p.set_defaults(func=_demo, png="demo.png", vtu="demo.vtu", json=None)
-    try:
-        from .reduced.cli import add_rom_subparser
-    except ImportError:  # the reduced-order models are optional for the 3D solver
-        add_rom_subparser = None
-    if add_rom_subparser is not None:
-        add_rom_subparser(sub)
+    for module, hook in _SUBCOMMANDS:
+        import importlib
+
+        try:
+            mod = importlib.import_module(f"skfem_sheet.{module}")
+        except ModuleNotFoundError as err:  # a command whose module is not there yet
+            if err.name != f"skfem_sheet.{module}":
+                raise
+            continue
+        getattr(mod, hook)(sub)
     return parser
+
+
+#: Commands defined in their own modules: (module, function adding the subparser).
+_SUBCOMMANDS = (("reduced.cli", "add_rom_subparser"), ("sweep", "add_sweep_subparser"),
+                ("bistability", "add_bistability_subparser"),
+                ("figures", "add_figure_subparser"))
 
 
 def _sheet(args):
