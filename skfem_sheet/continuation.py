@@ -129,12 +129,13 @@ def _load_rate(load, lam, eps=1e-6):
 
 def _tangent_predictor(problem, w, dkappa, dg, kappa, solver, stats):
     """dw/dlam from ``K_ff dw_f = -(dg f_g)_f - K_fd dw_d`` with the last factorisation."""
-    free, fixed = problem.free, problem.fixed
+    free, clamp = problem.free, problem.clamp_dofs
     dw = np.zeros(problem.ndof)
-    dw[fixed] = dkappa * problem.clamp_rate(kappa) if dkappa else 0.0
+    if dkappa:
+        dw[clamp] = dkappa * problem.clamp_rate(kappa)
     rhs = -dg * problem.gravity_load[free]
     if dkappa:
-        rhs -= problem.clamp_coupling(w) @ dw[fixed]
+        rhs -= problem.clamp_coupling(w) @ dw[clamp]
     t = time.perf_counter()
     dw[free] = solver.solve(rhs)
     stats.linear_solve_s += time.perf_counter() - t
@@ -269,7 +270,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             dw = _tangent_predictor(problem, w, dk, dg, k_old, solver, stats)
             w_pred = _predict(w, dw, lam, lam_new,
                               prev if step_options.predictor == "hermite" else None)
-            w_pred[problem.fixed] = problem.clamp_values(k_new)
+            w_pred[problem.clamp_dofs] = problem.clamp_values(k_new)
             # the branch guard matters once the sheet can be on either branch;
             # it is lifted when the steps have shrunk to a fold (snap-through)
             guard = scale * step_options.max_correction if iphase > 0 and not snapping else np.inf
@@ -286,7 +287,11 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                              max_first_increment=guard)
             if res.converged:
                 if snapping:
-                    out.snaps.append((name, lam_new, k_new, g_new))
+                    # a snap only if the sheet really left its branch; the
+                    # damped iteration may also settle just short of the fold
+                    nu = problem.nu_dof
+                    if np.abs(res.w[:nu] - w[:nu]).max() > scale * step_options.max_correction:
+                        out.snaps.append((name, lam_new, k_new, g_new))
                     snapping = False
                 prev = (lam, w)
                 w, lam = res.w, lam_new

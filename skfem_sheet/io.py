@@ -8,7 +8,7 @@ import numpy as np
 
 from .params import ParameterError
 
-__all__ = ["write_result", "write_json", "check_writable"]
+__all__ = ["write_result", "write_json", "check_writable", "whole_sheet_fields"]
 
 
 def check_writable(name: str, filename, suffixes=None) -> str:
@@ -55,13 +55,32 @@ def write_result(result, filename) -> None:
         return
     import meshio
 
-    problem = result.problem
-    mesh = problem.sheet_mesh.mesh
-    nv = mesh.p.shape[1]
-    U = result.displacement[:nv]  # P2 vertex dofs come first (skfem numbering)
-    cells = [("tetra", mesh.t.T.astype(np.int64))]
+    p, t, U, pressure, psi = whole_sheet_fields(result)
     out = meshio.Mesh(
-        points=mesh.p.T, cells=cells,
-        point_data={"displacement": U, "pressure": result.pressure},
-        cell_data={"psi_over_mu": [result.energy_density]})
+        points=p.T, cells=[("tetra", t.T.astype(np.int64))],
+        point_data={"displacement": U, "pressure": pressure},
+        cell_data={"psi_over_mu": [psi]})
     meshio.write(path, out, file_format="vtu")
+
+
+def whole_sheet_fields(result):
+    """Vertex fields of the whole sheet (a symmetric half solve is mirrored).
+
+    Returns
+    -------
+    p : ndarray (3, n)
+        Reference vertices.
+    t : ndarray (4, m)
+        Tetrahedra.
+    displacement : ndarray (n, 3)
+    pressure : ndarray (n,)
+        Paper convention (``mu`` at rest).
+    psi : ndarray (m,)
+        psi/mu per tetrahedron.
+    """
+    mesh = result.problem.sheet_mesh
+    p, t, source, sign, element_source = mesh.mirrored()
+    nv = mesh.n_vertices
+    U = result.displacement[:nv][source]  # P2 vertex dofs come first (skfem numbering)
+    U[:, 1] *= sign
+    return p, t, U, result.pressure[source], result.energy_density[element_source]

@@ -4,6 +4,9 @@ The sheet occupies ``x in [0, L]``, ``|y| <= p(x)/2``, ``|z| <= h/2`` with
 ``p(x) = 1 + (b - 1) x / L``.  We mesh the *upper half* of the plan view
 (``y >= 0``) with gmsh, mirror it to ``y <= 0`` and extrude it through the
 thickness in ``layers`` layers; each prism is cut into three tetrahedra.
+With ``half=True`` the mirror is skipped: the mesh is then exactly the
+``y >= 0`` half of the full one (same vertices, same cuts), for the symmetric
+half-model of :func:`skfem_sheet.solve` (``U_y = 0`` on ``y = 0``).
 
 Why extruded rather than a free 3D tetrahedral mesh:
 
@@ -46,6 +49,8 @@ class SheetMesh:
         The geometry it was built for and the target element size.
     layers : int
         Number of element layers through the thickness.
+    half : bool
+        Only the half ``y >= 0`` is meshed (symmetric half-model).
     """
 
     mesh: object
@@ -54,6 +59,7 @@ class SheetMesh:
     thickness: float
     hmax: float
     layers: int
+    half: bool = False
 
     @property
     def n_elements(self) -> int:
@@ -62,6 +68,39 @@ class SheetMesh:
     @property
     def n_vertices(self) -> int:
         return self.mesh.p.shape[1]
+
+    def mirrored(self):
+        """The whole sheet from a half mesh, for output.
+
+        Returns
+        -------
+        p : ndarray (3, n)
+            Vertices of the whole sheet.
+        t : ndarray (4, m)
+            Its tetrahedra (positively oriented).
+        source : ndarray (n,)
+            Half-mesh vertex of each vertex (a field ``f`` on the half mesh is
+            ``f[source]`` on the whole, with its y component times ``sign``).
+        sign : ndarray (n,)
+            ``-1`` on the mirrored vertices, ``+1`` on the original ones.
+        element_source : ndarray (m,)
+            Half-mesh element of each tetrahedron.
+
+        A full mesh is returned unchanged (``source`` the identity).
+        """
+        p, t = self.mesh.p, self.mesh.t
+        nv, ne = p.shape[1], t.shape[1]
+        if not self.half:
+            return p, t, np.arange(nv), np.ones(nv), np.arange(ne)
+        off = np.flatnonzero(np.abs(p[1]) > 1e-12 * max(1.0, self.length))
+        index = np.arange(nv)
+        index[off] = nv + np.arange(len(off))
+        p_full = np.hstack([p, p[:, off] * np.array([[1.0], [-1.0], [1.0]])])
+        t_mirror = index[t][[0, 2, 1, 3]]  # reflection flips orientation
+        source = np.concatenate([np.arange(nv), off])
+        sign = np.concatenate([np.ones(nv), -np.ones(len(off))])
+        return (p_full, np.hstack([t, t_mirror]), source, sign,
+                np.concatenate([np.arange(ne), np.arange(ne)]))
 
 
 def default_layers(thickness: float, hmax: float) -> int:
@@ -93,13 +132,13 @@ def _check_mesh_args(sheet: Sheet, hmax: float, layers):
     return hmax, int(layers)
 
 
-def estimate_dofs(sheet: Sheet, hmax: float, layers=None) -> int:
+def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False) -> int:
     """Rough number of unknowns (P2 displacement + P1 pressure) before meshing.
 
     Used to refuse meshes that would not fit in memory with a clear message.
     """
     hmax, layers = _check_mesh_args(sheet, hmax, layers)
-    n_tri = 2.0 * sheet.area / (math.sqrt(3) / 4 * hmax**2) / 2  # ~ equilateral
+    n_tri = 2.0 * sheet.area / (math.sqrt(3) / 4 * hmax**2) / (4 if half else 2)
     n_v2 = 0.5 * n_tri  # plan vertices
     n_e2 = 1.5 * n_tri
     nv = n_v2 * (layers + 1)
@@ -107,8 +146,11 @@ def estimate_dofs(sheet: Sheet, hmax: float, layers=None) -> int:
     return int(3 * (nv + nedges) + nv)
 
 
-def plan_triangulation(length: float, tip_width: float, hmax: float):
+def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool = False):
     """Triangulate the plan view, mirror-symmetric about ``y = 0``.
+
+    With ``half=True`` only the part ``y >= 0`` (the same triangles, in the
+    same relative vertex order).
 
     Returns
     -------
@@ -134,7 +176,13 @@ def plan_triangulation(length: float, tip_width: float, hmax: float):
     order = np.lexsort((xy[:, 1], np.abs(xy[:, 1]), xy[:, 0]))
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
-    return xy[order], rank[tri]
+    xy, tri = xy[order], rank[tri]
+    if half:  # the y >= 0 part, vertex order kept
+        keep = xy[:, 1] >= 0
+        tri = tri[np.all(keep[tri], axis=1)]
+        new = np.cumsum(keep) - 1
+        xy, tri = xy[keep], new[tri]
+    return xy, tri
 
 
 @lru_cache(maxsize=32)
@@ -228,7 +276,7 @@ def extrude(xy, tri, thickness: float, layers: int):
     return p, t
 
 
-def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None) -> SheetMesh:
+def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False) -> SheetMesh:
     """The (cached) tetrahedral mesh of ``sheet``.
 
     Parameters
@@ -240,6 +288,8 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None) -> SheetMesh:
     layers : int, optional
         Element layers through the thickness (default ``max(2, ceil(h / hmax))``,
         see :func:`default_layers`).
+    half : bool
+        Mesh only the half ``y >= 0`` (the ``y >= 0`` part of the full mesh).
 
     Examples
     --------
@@ -248,14 +298,15 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None) -> SheetMesh:
     (2, 3)
     """
     hmax, layers = _check_mesh_args(sheet, hmax, layers)
-    return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax, layers)
+    return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax, layers,
+                        bool(half))
 
 
 @lru_cache(maxsize=16)
-def _cached_mesh(length, tip_width, thickness, hmax, layers) -> SheetMesh:
+def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False) -> SheetMesh:
     from skfem import MeshTet
 
-    xy, tri = plan_triangulation(length, tip_width, hmax)
+    xy, tri = plan_triangulation(length, tip_width, hmax, half)
     p, t = extrude(xy, tri, thickness, layers)
     return SheetMesh(mesh=MeshTet(p, t), length=length, tip_width=tip_width,
-                     thickness=thickness, hmax=hmax, layers=layers)
+                     thickness=thickness, hmax=hmax, layers=layers, half=bool(half))

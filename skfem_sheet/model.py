@@ -151,11 +151,16 @@ class SheetProblem:
         return w[: self.nu_dof].reshape(-1, 3), w[self.nu_dof:]
 
     def clamp_values(self, kappa):
-        """Values of the fixed dofs for clamp curvature ``kappa``."""
+        """Values of the clamped dofs ``clamp_dofs`` for clamp curvature ``kappa``.
+
+        (The other fixed dofs, ``U_y = 0`` on the symmetry plane of a half
+        model, are always zero.)
+        """
         X = self.nodes[self.clamp_nodes]
         return clamp_displacement(X[:, 1], X[:, 2], kappa).ravel()
 
     def clamp_rate(self, kappa):
+        """``d clamp_values / d kappa``."""
         X = self.nodes[self.clamp_nodes]
         return clamp_displacement_rate(X[:, 1], X[:, 2], kappa).ravel()
 
@@ -187,12 +192,16 @@ class SheetProblem:
         r += g * self.gravity_load
         return r, Jmin
 
-    def element_matrices(self, w, elements=None):
+    def element_matrices(self, w, elements=None, out=None, work=None):
         """Element tangents, shape (nel, 34, 34): the Hessian of Pi.
 
         ``K[(a,i),(b,k)] = int mu d_ik grad phi_a . grad phi_b
         + (mu + p J) b_ak b_bi - p J b_ai b_bk``, with the spatial gradients
         ``b_a = F^{-T} grad phi_a``, and ``K[(a,i), c] = -int J b_ai psi_c``.
+
+        ``out`` (nel, 34, 34) and ``work`` (nel, 30, 30) are optional
+        preallocated arrays (reused by :meth:`tangent`: first-touch page
+        faults on fresh 100 MB arrays cost more than the arithmetic here).
         """
         F, p = self._fields(w, elements)
         J, Finv = det_inv(F)
@@ -202,13 +211,16 @@ class SheetProblem:
         bs = np.einsum("eqmi,eqam->eqai", Finv, dphi).reshape(nel, nq, 30)
         wq = self.dx[sel]
         pJ = p * J
-        K = np.empty((nel, 34, 34))
+        K = np.empty((nel, 34, 34)) if out is None else out
+        Y = np.empty((nel, 30, 30)) if work is None else work
         Kuu = K[:, :30, :30].reshape(nel, 10, 3, 10, 3)  # a view: written in place
         c2 = (wq * (self.mu + pJ))[..., None] * bs
-        Y = np.matmul(c2.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
-        np.copyto(Kuu, Y.transpose(0, 1, 4, 3, 2))  # (e, a, i, b, k) <- (e, a, k, b, i)
+        np.matmul(c2.transpose(0, 2, 1), bs, out=Y)
+        # (e, a, i, b, k) <- (e, a, k, b, i)
+        np.copyto(Kuu, Y.reshape(nel, 10, 3, 10, 3).transpose(0, 1, 4, 3, 2))
         c3 = (wq * pJ)[..., None] * bs
-        Kuu -= np.matmul(c3.transpose(0, 2, 1), bs).reshape(nel, 10, 3, 10, 3)
+        np.matmul(c3.transpose(0, 2, 1), bs, out=Y)
+        Kuu -= Y.reshape(nel, 10, 3, 10, 3)
         lap = self.mu * self._lap[sel]
         for i in range(3):
             Kuu[:, :, i, :, i] += lap
@@ -224,26 +236,33 @@ class SheetProblem:
         Its sparsity pattern is fixed for the problem's lifetime, and the zero
         diagonal entries of the pressure block are stored explicitly.
         """
-        Ke = self.element_matrices(w).ravel()
+        if getattr(self, "_buffers", None) is None:
+            nel = len(self.dx)
+            self._buffers = (np.empty((nel, 34, 34)), np.empty((nel, 30, 30)))
+        Kb, Yb = self._buffers
+        Ke = self.element_matrices(w, out=Kb, work=Yb).ravel()
         data = self._scatter_ff @ Ke
         nf = self.n_free
         return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
 
     def clamp_coupling(self, w):
-        """``K_fd``: free rows, clamped columns (only clamp elements are computed)."""
+        """``K_fc``: free rows, clamped columns (``clamp_dofs``; only the
+        elements touching the clamp are computed)."""
         Ke = self.element_matrices(w, self.clamp_elements).ravel()
         data = self._scatter_fd @ Ke
         return sp.csr_matrix((data, self._indices_fd, self._indptr_fd),
-                             shape=(self.n_free, len(self.fixed)))
+                             shape=(self.n_free, len(self.clamp_dofs)))
 
     def energy(self, w, g):
-        """Total potential energy Pi (the constraint term vanishes at equilibrium)."""
+        """Total potential energy Pi of the whole sheet (the constraint term
+        vanishes at equilibrium; a half model counts twice)."""
         F, p = self._fields(w)
         J = np.linalg.det(F)
         IC = np.einsum("eqij,eqij->eq", F, F)
         dens = 0.5 * self.mu * (IC - 3) - self.mu * np.log(J) - p * (J - 1)
         U, _ = self.split(w)
-        return float(np.sum(self.dx * dens) + g * U[:, 2] @ (self.gravity_load[2:self.nu_dof:3]))
+        e = float(np.sum(self.dx * dens) + g * U[:, 2] @ (self.gravity_load[2:self.nu_dof:3]))
+        return 2.0 * e if self.sheet_mesh.half else e
 
     def energy_density(self, w):
         """psi/mu = (I_C - 3)/2, averaged over each element (paper Fig. 3)."""
@@ -296,12 +315,16 @@ def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
     self.edofs = np.hstack([edofs_u, self.nu_dof + self.element_vertices])  # (nel, 34)
 
     # clamp x = 0: all displacement dofs of those nodes
+    tol = 1e-9 * max(1.0, mesh.length)
     x = self.nodes[:, 0]
-    self.clamp_nodes = np.flatnonzero(np.abs(x) < 1e-9 * mesh.length)
-    fixed = (3 * self.clamp_nodes[:, None] + np.arange(3)).ravel()
+    self.clamp_nodes = np.flatnonzero(np.abs(x) < tol)
+    self.clamp_dofs = (3 * self.clamp_nodes[:, None] + np.arange(3)).ravel()
     is_fixed = np.zeros(self.ndof, bool)
-    is_fixed[fixed] = True
-    self.fixed = fixed
+    is_fixed[self.clamp_dofs] = True
+    if mesh.half:  # symmetry plane y = 0: U_y = 0
+        self.symmetry_nodes = np.flatnonzero(np.abs(self.nodes[:, 1]) < tol)
+        is_fixed[3 * self.symmetry_nodes + 1] = True
+    self.fixed = np.flatnonzero(is_fixed)
     self.free = np.flatnonzero(~is_fixed)
     _build_pattern(self)
 
@@ -333,34 +356,90 @@ def _scatter(slots, entries, n_slots, n_entries):
 
 
 def _build_pattern(self):
-    """CSR patterns of the free-free and free-fixed blocks and the scatter
+    """CSR patterns of the free-free and free-clamped blocks and the scatter
     operators from element matrices into them (assembly is one sparse
-    mat-vec).  The free-fixed block only involves elements touching the clamp."""
-    nd = self.edofs.shape[1]
-    n = self.ndof
+    mat-vec).
+
+    The free-free pattern is found at the level of *blocks* (a P2 node with its
+    free displacement components, or a P1 vertex with its pressure): the
+    unique (block, block) pairs of all elements (14 x 14 per element, instead
+    of 34 x 34 dof pairs), expanded to dofs.  Pressure-pressure couplings are
+    structurally zero and left out, except the diagonal, which is stored as
+    explicit zeros for the symmetric-indefinite solvers.
+    """
+    nel, nd = self.edofs.shape
+    nn, n = self.n_nodes, self.ndof
     red = np.full(n, -1, dtype=np.int64)
     red[self.free] = np.arange(len(self.free))
-    fix = np.full(n, -1, dtype=np.int64)
-    fix[self.fixed] = np.arange(len(self.fixed))
-    nf, nx = len(self.free), len(self.fixed)
-    n_entries = self.edofs.shape[0] * nd * nd
-    rows = np.repeat(self.edofs, nd, axis=1).ravel()
-    cols = np.tile(self.edofs, (1, nd)).ravel()
-    rf, cf = red[rows], red[cols]
-    ff = np.flatnonzero((rf >= 0) & (cf >= 0))
-    # include the full diagonal so that the pressure block has explicit
-    # (zero) diagonal entries (needed by symmetric solvers)
-    diag = np.arange(nf)
-    keys = np.concatenate([rf[ff] * nf + cf[ff], diag * nf + diag])
-    uniq, inv = np.unique(keys, return_inverse=True)
-    self._scatter_ff = _scatter(inv[: len(ff)], ff, len(uniq), n_entries)
-    r, c = np.divmod(uniq, nf)
-    self._indptr_ff = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=nf))]).astype(np.int32)
-    self._indices_ff = c.astype(np.int32)
-    # free-fixed block, from the elements touching the clamp only
-    is_fixed = np.zeros(n, bool)
-    is_fixed[self.fixed] = True
-    self.clamp_elements = np.flatnonzero(is_fixed[self.edofs].any(axis=1))
+    nf = len(self.free)
+    # blocks: node k -> k, vertex c -> nn + c; dof -> (block, component)
+    nb = nn + self.n_vertices
+    dof_block = np.concatenate([np.repeat(np.arange(nn), 3), nn + np.arange(self.n_vertices)])
+    dof_comp = np.concatenate([np.tile(np.arange(3), nn), np.zeros(self.n_vertices, np.int64)])
+    is_free = red >= 0
+    # free components of each block, and each free dof's rank among them
+    nfree_block = np.bincount(dof_block, weights=is_free, minlength=nb).astype(np.int64)
+    rank = np.full(n, -1, dtype=np.int64)
+    fb = dof_block[self.free]
+    first = np.concatenate([[0], np.cumsum(nfree_block)[:-1]])
+    rank[self.free] = np.arange(nf) - first[fb]
+    # unique block pairs over the elements
+    eblocks = np.hstack([self.element_nodes, nn + self.element_vertices])  # (nel, 14)
+    nbe = eblocks.shape[1]
+    A = np.repeat(eblocks, nbe, axis=1).ravel()
+    B = np.tile(eblocks, (1, nbe)).ravel()
+    keep = ~((A >= nn) & (B >= nn) & (A != B))  # pressure-pressure: diagonal only
+    keys = A * nb + B
+    keys[~keep] = -1
+    ukeys, binv = np.unique(keys, return_inverse=True)
+    binv = binv.reshape(nel, nbe, nbe)
+    has_minus = ukeys[0] < 0
+    bA, bB = np.divmod(ukeys, nb)
+    # offset of each block column inside its block row, counted in free dofs
+    width = nfree_block[bB]
+    width[bA < 0] = 0
+    cum = np.cumsum(width) - width
+    row_first = np.full(nb, 0, dtype=np.int64)
+    ok = bA >= 0
+    # first entry of each block row (ukeys sorted: rows contiguous)
+    starts = np.flatnonzero(ok & np.concatenate([[True], bA[1:] != bA[:-1]]))
+    row_first[bA[starts]] = cum[starts]
+    blk_off = cum - np.where(ok, row_first[np.maximum(bA, 0)], 0)
+    row_len = np.bincount(bA[ok], weights=width[ok], minlength=nb).astype(np.int64)
+    # dof-level CSR: every free dof of block A has row_len[A] entries
+    counts = row_len[fb]
+    indptr = np.concatenate([[0], np.cumsum(counts)])
+    # column indices: for each block row, the free dofs of its block columns
+    free_by_block = self.free[np.argsort(fb, kind="stable")]  # grouped by block
+    seg = np.repeat(first[bB[ok]] - cum[ok], width[ok]) + np.arange(width[ok].sum())
+    colseq = red[free_by_block[seg]]  # all block rows, concatenated
+    seg_start = np.zeros(nb, dtype=np.int64)
+    seg_start[bA[starts]] = cum[starts] - cum[ok][0]
+    src = np.repeat(seg_start[fb] - indptr[:-1], counts) + np.arange(indptr[-1])
+    indices = colseq[src]
+    # slot of every element-matrix entry (or -1)
+    loc = np.concatenate([np.repeat(np.arange(10), 3), 10 + np.arange(4)])  # dof -> block
+    rows = red[self.edofs]  # (nel, 34)
+    cr = rank[self.edofs]
+    base = np.where(rows >= 0, indptr[:-1][np.maximum(rows, 0)], -1)
+    slot = (base[:, :, None] + blk_off[binv[:, loc][:, :, loc]] + cr[:, None, :])
+    valid = (rows[:, :, None] >= 0) & (cr[:, None, :] >= 0)
+    bad_pair = binv[:, loc][:, :, loc] == 0 if has_minus else np.zeros_like(valid)
+    valid &= ~bad_pair
+    entries = np.flatnonzero(valid.ravel())
+    self._scatter_ff = _scatter(slot.ravel()[entries], entries, indptr[-1], nel * nd * nd)
+    self._indptr_ff = indptr.astype(np.int32)
+    self._indices_ff = indices.astype(np.int32)
+    _build_clamp_pattern(self, red)
+
+
+def _build_clamp_pattern(self, red):
+    """Free rows x clamped columns, from the elements touching the clamp."""
+    nd = self.edofs.shape[1]
+    nf, nx = len(self.free), len(self.clamp_dofs)
+    fix = np.full(self.ndof, -1, dtype=np.int64)
+    fix[self.clamp_dofs] = np.arange(nx)
+    self.clamp_elements = np.flatnonzero((fix[self.edofs] >= 0).any(axis=1))
     ed = self.edofs[self.clamp_elements]
     rows = np.repeat(ed, nd, axis=1).ravel()
     cols = np.tile(ed, (1, nd)).ravel()

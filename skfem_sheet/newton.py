@@ -192,7 +192,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
 
 
 def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-                     shift=100.0, max_iterations=60) -> NewtonResult:
+                     shift=100.0, max_iterations=150) -> NewtonResult:
     """Pseudo-transient continuation to a stable equilibrium at gravity ``g``.
 
     Used where a branch ends at a fold and the sheet must snap to the other
@@ -205,6 +205,10 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
     that is drawn to stable equilibria, turning into Newton (``sigma -> 0``)
     as the residual falls.  Steps that invert an element are halved.
     Converged on the same test as :func:`newton` once ``sigma`` is negligible.
+
+    ``max_iterations`` is generous because a symmetric half model can only
+    snap along mirror-symmetric shapes, a slower route than the whole sheet's
+    (pop-up of L/a = 1.3, a/R = 6 at hmax 0.1: 92 iterations against 39).
     """
     import scipy.sparse as sp
 

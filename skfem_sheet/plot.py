@@ -9,17 +9,19 @@ __all__ = ["top_surface", "plot_sheet"]
 def top_surface(result):
     """Deformed top surface ``z = h/2``: vertices (n, 3), triangles (m, 3) and
     psi/mu of the tetrahedron under each triangle."""
-    problem = result.problem
-    mesh = problem.sheet_mesh.mesh
-    h = problem.sheet_mesh.thickness
+    from skfem import MeshTet
+
+    from .io import whole_sheet_fields
+
+    h = result.problem.sheet_mesh.thickness
+    p, t, U, _, psi = whole_sheet_fields(result)
+    mesh = MeshTet(p, t) if result.problem.sheet_mesh.half else result.problem.sheet_mesh.mesh
     f = mesh.boundary_facets()
     tri = mesh.facets[:, f]
     top = np.all(np.abs(mesh.p[2, tri] - h / 2) < 1e-9, axis=0)
     tri = tri[:, top].T
     elem = mesh.f2t[0, f[top]]
-    nv = mesh.p.shape[1]
-    X = mesh.p.T + result.displacement[:nv]
-    return X, tri, result.energy_density[elem]
+    return mesh.p.T + U, tri, psi[elem]
 
 
 def _shaded(rgba, faces, light=(-0.4, -0.5, 0.77)):

@@ -61,6 +61,21 @@ class Result:
     snaps : tuple
         ``(phase, lam, kappa, g)`` where the followed branch ended at a fold and
         the sheet snapped to the other one (empty if the branch held).
+    symmetric : bool
+        Solved as the mirror-symmetric half (see :func:`solve`).
+    branch : str
+        ``"curvature-dominated"`` or ``"gravity-dominated"``: the branch the
+        load path selects (curvature-first: curvature-dominated), switched if
+        the path snapped.  Outside the bistable range both paths reach the same
+        state, whatever its name.
+    stable : bool or None
+        Whether the equilibrium is stable: the constrained Hessian (the tangent
+        on the incompressible subspace) is positive definite, read off the
+        inertia of the last factorised tangent (``None`` if the linear solver
+        cannot tell).  For a symmetric solve, stability against symmetric
+        perturbations.
+    negative_eigenvalues : int or None
+        Number of negative eigenvalues of the constrained Hessian.
     """
 
     sheet: Sheet
@@ -85,6 +100,10 @@ class Result:
     layers: int
     steps: tuple = ()
     snaps: tuple = ()
+    symmetric: bool = False
+    branch: str = ""
+    stable: object = None
+    negative_eigenvalues: object = None
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -127,6 +146,10 @@ class Result:
             "kappa_reached": self.kappa,
             "gravity_reached": self.gravity,
             "solver": self.solver,
+            "symmetric": self.symmetric,
+            "branch": self.branch,
+            "stable": self.stable,
+            "negative_eigenvalues": self.negative_eigenvalues,
             "params": {"length": s.length, "tip_width": s.tip_width,
                        "curvature": s.curvature, "thickness": s.thickness,
                        "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers},
@@ -144,12 +167,14 @@ class Result:
 
 
 @lru_cache(maxsize=8)
-def _problem(sheet: Sheet, hmax: float, layers, quadrature_order: int) -> SheetProblem:
-    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers), quadrature_order)
+def _problem(sheet: Sheet, hmax: float, layers, quadrature_order: int,
+             half: bool = False) -> SheetProblem:
+    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half), quadrature_order)
 
 
 def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           layers=None, solver: str = "auto", quadrature_order: int = 2,
+          symmetric: bool = True,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False) -> Result:
@@ -168,6 +193,12 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     solver : {"auto", "pardiso", "superlu"}
         Linear-solver back-end (see :mod:`skfem_sheet.linalg`).
     quadrature_order : {2, 3, 4}
+    symmetric : bool
+        Solve the mirror-symmetric half ``y >= 0`` with ``U_y = 0`` on
+        ``y = 0`` (default): half the unknowns, the same answer to round-off
+        whenever the equilibrium is symmetric (its mesh is exactly the half of
+        the full one).  ``False`` solves the whole sheet, which also admits
+        asymmetric (e.g. twisting) shapes and perturbations.
     on_failure : {"raise", "return"}
         If the full load is not reached: raise :class:`SolveError` (default)
         or return a :class:`Result` with ``converged=False``.
@@ -193,7 +224,9 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     if quadrature_order not in (2, 3, 4):
         raise ParameterError(f"quadrature_order must be one of 2, 3, 4, got {quadrature_order!r}")
     hmax = check_range("hmax", hmax, 0, None, lo_open=True)
-    ndofs = estimate_dofs(sheet, hmax, layers)
+    if not isinstance(symmetric, (bool, np.bool_)):
+        raise ParameterError(f"symmetric must be True or False, got {symmetric!r}")
+    ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric)
     if ndofs > MAX_DOFS:
         raise ParameterError(f"hmax must be larger: hmax={hmax:g} gives about {ndofs:,} unknowns, "
                          f"more than the {MAX_DOFS:,} that fit in memory here")
@@ -203,7 +236,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
 
     t0 = time.perf_counter()
     stats = Stats()
-    problem = _problem(sheet, hmax, layers, quadrature_order)
+    problem = _problem(sheet, hmax, layers, quadrature_order, bool(symmetric))
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -237,7 +270,15 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         energy=problem.energy(w, out.g),
         volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
         solver=linear.name, layers=problem.sheet_mesh.layers,
-        steps=tuple(out.steps), snaps=tuple(out.snaps), problem=problem, w=w)
+        steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
+        branch=_branch(path, out.snaps), problem=problem, w=w)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
+
+
+def _branch(path, snaps):
+    own, other = "curvature-dominated", "gravity-dominated"
+    if path == "gravity-first":
+        own, other = other, own
+    return other if len(snaps) % 2 else own
