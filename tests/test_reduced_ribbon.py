@@ -4,10 +4,12 @@ import pytest
 
 from skfem_sheet.params import Sheet
 from skfem_sheet.reduced import (detect_jumps, elastica, plot_map, ribbon,
-                                 ribbon_continuation, ribbon_map, write_map_csv)
+                                 ribbon_continuation, ribbon_energy_terms, ribbon_map,
+                                 write_map_csv)
 from skfem_sheet.reduced._ribbon_fem import (energy_gradient_hessian, make_mesh,
-                                             make_operators, total_energy)
-from skfem_sheet.reduced._ribbon_kernels import energy_derivatives, energy_density
+                                             make_operators, minimise, total_energy)
+from skfem_sheet.reduced._ribbon_kernels import energy_derivatives, energy_density, energy_terms
+from skfem_sheet.reduced.ribbon import DEFAULT_ELEMENTS, _deflection, _free_mask
 
 NU = 0.5
 
@@ -36,6 +38,8 @@ def test_energy_density_matches_t_quadrature():
         p, grav = rng.uniform(0.1, 1.0), rng.uniform(0, 1)
         e = energy_density(q[None], np.array([p]), np.array([grav]), 29.4, 0.0022, NU)[0]
         assert e == pytest.approx(_direct_density(q, p, grav, 29.4, 0.0022, NU), rel=1e-12)
+        terms = energy_terms(q[None], np.array([p]), np.array([grav]), 29.4, 0.0022, NU)
+        assert sum(v[0] for v in terms.values()) == pytest.approx(e, rel=1e-12)
 
 
 def test_pointwise_derivatives_match_finite_differences():
@@ -90,13 +94,90 @@ def test_free_c_rectangle_at_zero_curvature_close_to_elastica(L):
     assert 0 < np.max(np.abs(r.c)) < 0.1          # Poisson coupling: small c
 
 
-def test_free_c_poisson_coupling_differences():
-    """Documented deviations (ERRATA): short rectangle ~2 %, triangle up to ~36 %."""
-    short = ribbon(Sheet(length=0.5)).deflection / elastica(Sheet(length=0.5)).deflection - 1
-    tri = ribbon(Sheet(length=1.0, tip_width=0.0)).deflection / \
-        elastica(Sheet(length=1.0, tip_width=0.0)).deflection - 1
-    assert 0.01 < short < 0.03
-    assert 0.02 < tri < 0.06
+# Issue 7 asked for the free-c rectangle within 0.5 % of the elastica on L = 0.5...1.8.  That
+# holds from L = 0.75 on only, and it should not hold below: the elastica (plate modulus) is
+# the wide-plate limit, the anticlastic curvature makes short and tapered sheets softer, and
+# the 3D solver is softer still (see ribbon.py, "Flat clamp: why c free is softer ..." and
+# test_free_c_softening_agrees_with_3d).  These tests assert that behaviour instead.
+FLAT_LENGTHS = np.array([0.5, 0.6, 0.7, 0.8, 1.0, 1.4, 1.8])
+
+
+def _free_c_vs_elastica(b):
+    return np.array([ribbon(Sheet(length=L, tip_width=b)).deflection
+                     / elastica(Sheet(length=L, tip_width=b)).deflection - 1
+                     for L in FLAT_LENGTHS])
+
+
+def test_free_c_rectangle_softening_decreases_with_length():
+    rel = _free_c_vs_elastica(1.0)       # +1.92 % at L = 0.5 ... -0.004 % at L = 1.8
+    assert np.all(np.diff(np.abs(rel)) < 0)
+    assert 0.01 < rel[0] < 0.03                              # short sheet: measurably softer
+    assert np.all(np.abs(rel[FLAT_LENGTHS >= 0.75]) < 5e-3)   # issue 7's 0.5 % from 0.75 on
+    assert abs(rel[FLAT_LENGTHS == 0.7][0]) > 5e-3 > abs(rel[FLAT_LENGTHS == 0.8][0])
+
+
+def test_free_c_triangle_softening_decreases_with_length():
+    rel = _free_c_vs_elastica(0.0)       # +35.6 % at L = 0.5, +4.1 % at 1.0, +0.12 % at 1.8
+    assert np.all(rel > 0) and np.all(np.diff(rel) < 0)
+    # 3D gives +37 % at L = 0.5; the beam-modulus limit 1/(1 - nu^2) - 1 is 33 %
+    assert 0.30 < rel[0] < 0.42
+    assert 0.02 < rel[FLAT_LENGTHS == 1.0][0] < 0.06
+    assert rel[-1] < 5e-3
+
+
+def _free_c_deflection(sheet, nu, n=24):
+    """ribbon() at curvature 0 with a chosen Poisson ratio (load ramped as in ribbon())."""
+    mesh = make_mesh(n)
+    x = np.zeros(4 * (n + 1))
+    for lam in (0.25, 0.5, 0.75, 1.0):
+        ops = make_operators(mesh, sheet.length, sheet.tip_width, sheet.thickness,
+                             sheet.stretching_modulus, sheet.bending_modulus, nu, lam)
+        x, conv, _, _ = minimise(ops, x, _free_mask(n + 1, False))
+        assert conv
+    return _deflection(ops, x, mesh.S_nodes, sheet.length, sheet.tip_width), x[0::4]
+
+
+def test_free_c_difference_is_poisson_coupling_for_rectangle_taper_for_triangle():
+    for L in (0.5, 1.0):
+        s = Sheet(length=L)
+        d, c = _free_c_deflection(s, 0.0)
+        assert d == pytest.approx(elastica(s).deflection, rel=1e-6)
+        assert np.max(np.abs(c)) < 1e-8
+        assert _free_c_deflection(s, 0.5)[0] == pytest.approx(ribbon(s).deflection, rel=1e-9)
+    tri = Sheet(length=0.5, tip_width=0.0)
+    d_tri = _free_c_deflection(tri, 0.0)[0]       # +14.5 %: taper couples c to phi' at nu = 0
+    assert d_tri > 1.1 * elastica(tri).deflection
+
+
+def test_energy_terms_and_their_trend():
+    short, long_ = Sheet(length=0.5), Sheet(length=1.5)
+    rs, rl = ribbon(short), ribbon(long_)
+    es, el = ribbon_energy_terms(short, rs), ribbon_energy_terms(long_, rl)
+    mesh = make_mesh(DEFAULT_ELEMENTS)
+    ops = make_operators(mesh, 0.5, 1.0, 0.03, short.stretching_modulus,
+                         short.bending_modulus, NU)
+    assert es["total"] == pytest.approx(total_energy(ops, rs.state), rel=1e-12)
+    for e in (es, el):
+        assert e["poisson"] < 0 < min(e["bending_tt"], e["twisting"], e["stretching"])
+    # the anticlastic (Poisson) energy matters less for the longer, more strongly bent sheet
+    assert abs(es["poisson"]) / es["bending_ss"] > 2 * abs(el["poisson"]) / el["bending_ss"]
+    flat = ribbon_energy_terms(short, ribbon(short, impose_flat=True))
+    assert flat["poisson"] == flat["bending_tt"] == flat["twisting"] == flat["stretching"] == 0
+    with pytest.raises(ValueError, match="result"):
+        ribbon_energy_terms(long_, rs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("b", [1.0, 0.0])
+def test_free_c_softening_agrees_with_3d(b):
+    """At L = 0.5 the 3D solver is softer than the elastica, and softer than the ribbon model:
+    rectangle +2.4 %, triangle +37 % (hmax 0.03; both rise under refinement)."""
+    from skfem_sheet import solve
+    s = Sheet(length=0.5, tip_width=b)
+    d_el, d_rib = elastica(s).deflection, ribbon(s).deflection
+    d_3d = solve(s, hmax=0.03).deflection
+    assert d_3d > d_rib > 1.005 * d_el
+    assert abs(d_rib - d_3d) < abs(d_el - d_3d)
 
 
 def test_tapered_clamp_slope_and_clamp_conditions():

@@ -9,7 +9,8 @@ width a = 1, rho g = 1) and reports deflections positive downward.
 - :func:`cantilever_deflection` -- Euler--Bernoulli estimate beyond L_p.
 - :func:`elastica` -- heavy elastica with varying width (eq. phODE2).
 - :func:`ribbon`, :func:`ribbon_continuation` -- ribbon model with transverse
-  curvature, traced in L in both directions.
+  curvature, traced in L in both directions (:func:`ribbon_energy_terms` splits
+  its energy into stretching, bending, Poisson, twisting and gravity terms).
 - :func:`ribbon_map` -- the Fig. 6 deflection map (+ :func:`write_map_csv`,
   :func:`plot_map`).
 
@@ -30,12 +31,12 @@ from skfem_sheet.reduced.maps import jump_curve, plot_map, ribbon_map, write_map
 from skfem_sheet.reduced.persistence import (PersistenceResult, persistence_length,
                                              persistence_length_asymptotic)
 from skfem_sheet.reduced.ribbon import (ContinuationResult, RibbonResult, detect_jumps,
-                                        ribbon, ribbon_continuation)
+                                        ribbon, ribbon_continuation, ribbon_energy_terms)
 
 __all__ = [
     "CantileverResult", "ContinuationResult", "ElasticaResult", "PersistenceResult",
     "RibbonResult", "cantilever_coefficient", "cantilever_deflection", "detect_jumps",
     "elastica", "elastica_linear_deflection", "jump_curve", "persistence_length",
     "persistence_length_asymptotic", "plot_map", "ribbon", "ribbon_continuation",
-    "ribbon_map", "write_map_csv",
+    "ribbon_energy_terms", "ribbon_map", "write_map_csv",
 ]

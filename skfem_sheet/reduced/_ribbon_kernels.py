@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["stretch_coefficients", "energy_density", "energy_derivatives"]
+__all__ = ["stretch_coefficients", "energy_density", "energy_derivatives", "energy_terms"]
 
 
 def stretch_coefficients(p):
@@ -50,6 +50,28 @@ def energy_density(q, p, grav, Y, D, nu):
     bend = (P * P * p + P * c2 * p**3 / 12.0 + c2 * c2 * p**5 / 320.0 + c * c * p
             + 2.0 * nu * c * (P * p + c2 * p**3 / 24.0) + (1.0 - nu) * c1 * c1 * p**3 / 6.0)
     return 0.5 * Y * F + 0.5 * D * bend + grav * np.sin(phi)
+
+
+def energy_terms(q, p, grav, Y, D, nu):
+    """The energy density split into its physical terms (they sum to :func:`energy_density`).
+
+    Keys: ``stretching`` (Y/2 int E_ss^2), ``bending_ss`` (D/2 int B_ss^2),
+    ``bending_tt`` (D/2 int B_tt^2), ``poisson`` (D nu int B_ss B_tt, the only
+    term linear in c at fixed Phi: it drives the anticlastic curvature),
+    ``twisting`` (D (1 - nu) int B_st^2) and ``gravity``; each an array of
+    shape ``q.shape[:-1]``.
+    """
+    c, c1, c2, P, phi = np.moveaxis(q, -1, 0)
+    A, B, C = stretch_coefficients(p)
+    k = 2.0 * c1**2 - c * c2
+    return {
+        "stretching": 0.5 * Y * (A * c * c * P * P - 2.0 * B * c * P * k + C * k * k),
+        "bending_ss": 0.5 * D * (P * P * p + P * c2 * p**3 / 12.0 + c2 * c2 * p**5 / 320.0),
+        "bending_tt": 0.5 * D * c * c * p,
+        "poisson": D * nu * c * (P * p + c2 * p**3 / 24.0),
+        "twisting": 0.5 * D * (1.0 - nu) * c1 * c1 * p**3 / 6.0,
+        "gravity": grav * np.sin(phi),
+    }
 
 
 def energy_derivatives(q, p, grav, Y, D, nu):

@@ -1,0 +1,401 @@
+"""Parameter sweeps (skfem_sheet.sweep): grids, keys, the journal, resume, kill -9, Dask.
+
+Logic tests replace the solver by a fake (fast, and able to fail on purpose);
+the kill -9 and Dask tests solve real, coarse sheets (hmax 0.2, L <= 0.5).
+"""
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import skfem_sheet.sweep as sw
+from skfem_sheet.cli import main
+from skfem_sheet.params import ParameterError
+from skfem_sheet.sweep import grid, journal_path, point_key, read_journal, run_sweep
+
+
+# -- a fake solver ---------------------------------------------------------------------------
+class FakeSolve:
+    """Stands in for skfem_sheet.solve.solve; its behaviour depends on the length.
+
+    0.9: raises RuntimeError; 0.8: full load not reached; 0.7: the path snapped;
+    0.6: the result knows its branch and stability.  ``interrupt_at`` raises
+    KeyboardInterrupt on that call (1-based).
+    """
+
+    def __init__(self, interrupt_at=None):
+        self.calls = []
+        self.interrupt_at = interrupt_at
+
+    def __call__(self, sheet, path="curvature-first", hmax=0.03, **kw):
+        self.calls.append((sheet.length, sheet.curvature, path))
+        if self.interrupt_at is not None and len(self.calls) == self.interrupt_at:
+            raise KeyboardInterrupt
+        L = sheet.length
+        if L == 0.9:
+            raise RuntimeError("boom in the solver")
+        r = SimpleNamespace(
+            deflection=L + 0.01 * sheet.curvature + (0.001 if path == "gravity-first" else 0),
+            converged=L != 0.8, message="step too small at kappa=1.2" if L == 0.8 else "",
+            snaps=(("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else (), newton_iterations=7,
+            load_steps=3, wall_time_s=0.01, assembly_s=0.001, linear_solve_s=0.002, dofs=100,
+            energy=-1.0, volume_change=1e-9, kappa=sheet.curvature, gravity=1.0,
+            factorizations=7, rejected_steps=0, solver="fake", layers=kw.get("layers") or 2)
+        if L == 0.6:
+            r.branch, r.stable = "gravity-dominated", False
+        return r
+
+
+@pytest.fixture
+def fake(monkeypatch):
+    f = FakeSolve()
+    monkeypatch.setattr(sw, "solve", f)
+    return f
+
+
+# -- grids and keys ----------------------------------------------------------------------------
+def test_grid_is_the_cartesian_product_in_signature_order():
+    pts = grid(length=[1.0, 1.3], tip_width=[1.0, 0.0], curvature=[0.0, 2.5],
+               path=["curvature-first", "gravity-first"], hmax=0.1)
+    assert len(pts) == 16
+    assert pts[0] == dict(length=1.0, tip_width=1.0, curvature=0.0, thickness=0.03,
+                          modulus=735.0, path="curvature-first", hmax=0.1, layers=None,
+                          solver="auto")
+    # length outermost, path innermost (of the lists given)
+    assert [p["path"] for p in pts[:2]] == ["curvature-first", "gravity-first"]
+    assert [p["curvature"] for p in pts[:4]] == [0.0, 0.0, 2.5, 2.5]
+    assert [p["length"] for p in pts] == [1.0] * 8 + [1.3] * 8
+    assert len({point_key(p) for p in pts}) == 16
+    both = grid(length=np.array([0.5, 1.0]), path="both", layers=[2, 3], solver="superlu")
+    assert len(both) == 8 and {p["path"] for p in both} == {"curvature-first", "gravity-first"}
+    assert all(type(p["length"]) is float and type(p["layers"]) is int for p in both)
+
+
+def test_grid_rejects_empty_lists_and_unknown_parameters():
+    with pytest.raises(ParameterError, match="curvature"):
+        grid(length=1.0, curvature=[])
+    with pytest.raises(TypeError):
+        grid(length=1.0, width=2)
+    with pytest.raises(ParameterError, match="'width'"):
+        run_sweep([{"length": 1.0, "width": 2}], workers=1, progress=False)
+    with pytest.raises(ParameterError, match="length"):
+        run_sweep([{"curvature": 1.0}], workers=1, progress=False)
+
+
+def test_key_normalises_float_noise_but_not_real_differences():
+    base = point_key({"length": 1.3, "curvature": 0.0, "layers": 2})
+    same = [{"length": 1.30000000001, "curvature": -0.0, "layers": 2.0},
+            {"length": np.arange(0.5, 1.5, 0.1)[8], "curvature": 0, "layers": np.int64(2)},
+            {"layers": 2, "curvature": 0.0, "length": np.float64(1.3)},   # order of the dict
+            {"length": 1.3, "layers": 2, "thickness": 0.03, "modulus": 735, "path":
+             "curvature-first", "hmax": 0.03, "solver": "auto", "tip_width": 1}]
+    assert np.arange(0.5, 1.5, 0.1)[8] != 1.3  # the float noise is real
+    for p in same:
+        assert point_key(p) == base, p
+    different = [{"length": 1.3000001, "layers": 2}, {"length": 1.3, "layers": 3},
+                 {"length": 1.3, "layers": 2, "path": "gravity-first"},
+                 {"length": 1.3, "layers": 2, "curvature": 1e-9},
+                 {"length": 1.3, "layers": 2, "hmax": 0.031},
+                 {"length": 1.3, "layers": 2, "solver": "superlu"}]
+    assert len({point_key(p) for p in different} | {base}) == len(different) + 1
+    assert len(base) == 16 and int(base, 16) >= 0
+
+
+def test_key_does_not_depend_on_the_process():
+    code = "from skfem_sheet.sweep import point_key; print(point_key({'length': 1.3}))"
+    env = dict(os.environ, PYTHONHASHSEED="123")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=120, check=True).stdout.strip()
+    assert out == point_key({"length": 1.3})
+
+
+# -- rows, failures, resume ------------------------------------------------------------------
+def test_failures_are_rows_and_the_sweep_carries_on(fake, tmp_path):
+    pts = grid(length=[0.5, 0.6, 0.7, 0.8, 0.9], curvature=2.5, path="both")
+    pts.append(dict(pts[0], tip_width=2.0))  # refused by Sheet: a ParameterError row
+    df = run_sweep(pts, table=tmp_path / "t.csv", workers=1, progress=False)
+    assert list(df.key) == [point_key(p) for p in pts]
+    assert len(fake.calls) == 10  # the bad point never reaches the solver
+    by = {(r.length, r.tip_width, r.path): r for r in df.itertuples()}
+    ok = by[(0.5, 1.0, "gravity-first")]
+    assert ok.converged and ok.error == "" and ok.deflection == pytest.approx(0.526)
+    assert ok.branch == "gravity-dominated" and not ok.snapped and pd.isna(ok.stable)
+    assert by[(0.5, 1.0, "curvature-first")].branch == "curvature-dominated"
+    snapped = by[(0.7, 1.0, "curvature-first")]   # snapped: the other branch
+    assert snapped.converged and snapped.snapped and snapped.branch == "gravity-dominated"
+    assert by[(0.7, 1.0, "gravity-first")].branch == "curvature-dominated"
+    told = by[(0.6, 1.0, "curvature-first")]      # the solver's own branch and stability win
+    assert told.branch == "gravity-dominated" and told.stable == False  # noqa: E712
+    nc = by[(0.8, 1.0, "curvature-first")]
+    assert not nc.converged and nc.message == "step too small at kappa=1.2" and nc.error == ""
+    boom = by[(0.9, 1.0, "gravity-first")]
+    assert not boom.converged and boom.message == "boom in the solver"
+    assert boom.error == "RuntimeError" and math.isnan(boom.deflection)
+    bad = by[(0.5, 2.0, "curvature-first")]
+    assert not bad.converged and bad.error == "ParameterError" and "tip_width" in bad.message
+    journal = read_journal(journal_path(tmp_path / "t.csv"))
+    assert "Traceback" in journal[boom.key]["traceback"]
+    assert set(df.columns) >= {
+        "length", "tip_width", "curvature", "thickness", "modulus", "path", "hmax", "layers",
+        "solver", "deflection", "converged", "message", "branch", "stable", "snapped",
+        "newton_iterations", "load_steps", "wall_time_s", "assembly_s", "linear_solve_s",
+        "dofs", "energy", "volume_change", "version", "key"}
+    from skfem_sheet import __version__
+    assert set(df.version) == {__version__}
+
+
+def test_resume_computes_only_the_missing_points(fake, tmp_path):
+    table = tmp_path / "t.csv"
+    first = grid(length=[0.3, 0.4], curvature=[0.0, 2.5])
+    df1 = run_sweep(first, table=table, workers=1, progress=False)
+    assert len(fake.calls) == 4 and df1.attrs["sweep"]["new"] == 4
+    more = grid(length=[0.3, 0.4, 0.5], curvature=[0.0, 2.5])
+    more = [more[5], *more, more[0]]  # a point twice: computed once, two rows
+    df2 = run_sweep(more, table=table, workers=1, progress=False)
+    assert len(fake.calls) == 6  # only the two new points
+    assert df2.attrs["sweep"]["new"] == 2 and df2.attrs["sweep"]["cached"] == 4
+    assert list(df2.key) == [point_key(p) for p in more]
+    old = df1.set_index("key")
+    for r in df2[df2.key.isin(old.index)].itertuples():  # cached rows are the stored rows
+        assert r.finished_at == old.loc[r.key, "finished_at"]
+    run_sweep(more, table=table, workers=1, progress=False)  # drawing twice ...
+    assert len(fake.calls) == 6                                # ... computes nothing twice
+    lines = (tmp_path / "t.csv.journal.jsonl").read_text().splitlines()
+    assert len(lines) == 6
+    on_disk = pd.read_csv(table)
+    assert len(on_disk) == 6 and on_disk.key.is_unique
+    assert list(on_disk.key) == list(dict.fromkeys(df2.key))  # this sweep's order
+
+
+def test_journal_survives_a_cut_line_garbage_and_duplicates(fake, tmp_path):
+    table = tmp_path / "t.csv"
+    pts = grid(length=[0.3, 0.4, 0.5])
+    run_sweep(pts, table=table, workers=1, progress=False)
+    jp = journal_path(table)
+    lines = Path(jp).read_bytes().splitlines(keepends=True)
+    assert len(lines) == 3
+    dup = json.loads(lines[0])
+    dup["deflection"] = 123.0  # a later line for the same point wins
+    cut = lines[2][: len(lines[2]) // 2]  # a write cut short by kill -9
+    with open(jp, "wb") as fh:
+        fh.write(lines[0] + b"not json at all\n" + lines[1] + b"\xff\xfe\n"
+                 + (json.dumps(dup) + "\n").encode() + cut)
+    got = read_journal(jp)
+    assert list(got) == [point_key(pts[0]), point_key(pts[1])]
+    assert got[point_key(pts[0])]["deflection"] == 123.0
+    df = run_sweep(pts, table=table, workers=1, progress=False)
+    assert fake.calls[3:] == [(0.5, 0.0, "curvature-first")]  # only the cut point again
+    assert list(df.deflection) == [123.0, pytest.approx(0.4), pytest.approx(0.5)]
+    text = Path(jp).read_bytes()
+    assert text.endswith(b"\n") and cut + b"\n" in text  # the cut line was ended, not extended
+    assert list(read_journal(jp)) == [point_key(p) for p in pts]
+
+
+def test_retry_failed_computes_failed_points_again(fake, tmp_path):
+    table = tmp_path / "t.csv"
+    pts = grid(length=[0.5, 0.8, 0.9])
+    df = run_sweep(pts, table=table, workers=1, progress=False)
+    assert list(df.converged) == [True, False, False]
+    run_sweep(pts, table=table, workers=1, progress=False)
+    assert len(fake.calls) == 3
+    df = run_sweep(pts, table=table, workers=1, progress=False, retry_failed=True)
+    assert [c[0] for c in fake.calls[3:]] == [0.8, 0.9]
+    assert len(read_journal(journal_path(table))) == 3 and len(pd.read_csv(table)) == 3
+
+
+def test_ctrl_c_stops_cleanly_and_keeps_finished_points(monkeypatch, tmp_path):
+    table = tmp_path / "t.csv"
+    monkeypatch.setattr(sw, "solve", FakeSolve(interrupt_at=3))
+    pts = grid(length=[0.3, 0.4, 0.5, 0.6])
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(pts, table=table, workers=1, progress=False)
+    assert len(pd.read_csv(table)) == 2 and len(read_journal(journal_path(table))) == 2
+    again = FakeSolve()
+    monkeypatch.setattr(sw, "solve", again)
+    df = run_sweep(pts, table=table, workers=1, progress=False)
+    assert [c[0] for c in again.calls] == [0.5, 0.6] and df.converged.all()
+
+
+def test_parquet_table_has_the_same_contents(fake, tmp_path):
+    pytest.importorskip("pyarrow")
+    pts = grid(length=[0.5, 0.8, 0.9], path="both")
+    df = run_sweep(pts, table=tmp_path / "t.parquet", workers=1, progress=False)
+    back = pd.read_parquet(tmp_path / "t.parquet")
+    pd.testing.assert_frame_equal(back, df, check_dtype=False)
+    assert not [f for f in os.listdir(tmp_path) if f.endswith(".tmp")]  # no temp files left
+
+
+def test_bad_sweep_arguments_raise_parameter_error(fake, tmp_path, monkeypatch):
+    pts = grid(length=0.5)
+    with pytest.raises(ParameterError, match="table must end with"):
+        run_sweep(pts, table=tmp_path / "t.txt", workers=1)
+    (tmp_path / "old.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ParameterError, match="without its journal"):
+        run_sweep(pts, table=tmp_path / "old.csv", workers=1)
+    assert (tmp_path / "old.csv").read_text() == "a,b\n1,2\n"  # untouched
+    with pytest.raises(ParameterError, match="workers"):
+        run_sweep(pts, workers=0)
+    with pytest.raises(ParameterError, match="workers"):
+        run_sweep(pts, workers=2, scheduler="tcp://127.0.0.1:1")
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # as if not installed
+    with pytest.raises(ParameterError, match=r"pyarrow.*skfem_sheet\[parquet\]"):
+        run_sweep(pts, table=tmp_path / "t.parquet", workers=1)
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ParameterError, match=r"scheduler.*skfem_sheet\[cluster\]"):
+        run_sweep(pts, scheduler="tcp://127.0.0.1:8786")
+    assert fake.calls == []
+
+
+BAD_CLI = [
+    (["--lengths", "1:0:0.1"], "--lengths"),
+    (["--lengths", "abc"], "--lengths"),
+    (["--lengths", "0.5:1:0"], "--lengths"),
+    (["--lengths=-1,1"], "length"),
+    (["--lengths", "-1,1"], "--lengths"),  # argparse: an option, not a value
+    (["--lengths", "1", "--tip-widths", "0:2:1"], "tip_width"),
+    (["--lengths", "1", "--curvatures", "nan"], "--curvatures"),
+    (["--lengths", "1", "--paths", "sideways"], "--paths"),
+    (["--lengths", "1", "--hmax", "0"], "hmax"),
+    (["--lengths", "1", "--layers", "1.5"], "--layers"),
+    (["--lengths", "1", "--solver", "magic"], "solver"),
+    (["--lengths", "1", "--workers", "0"], "--workers"),
+    (["--lengths", "1", "--table", "out.txt"], "--table"),
+    (["--lengths", "1", "--table", "/nonexistent/dir/out.csv"], "--table"),
+]
+
+
+@pytest.mark.parametrize("args, name", BAD_CLI, ids=[" ".join(a) for a, _ in BAD_CLI])
+def test_bad_cli_input_exit_2_with_one_line(args, name, capsys, tmp_path):
+    if not any(a.startswith("--table") for a in args):
+        args = [*args, "--table", str(tmp_path / "t.csv")]
+    try:
+        code = main(["sweep", *args, "--quiet"])
+    except SystemExit as exit_:  # argparse's own errors (also one line, exit 2)
+        code = exit_.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert name in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "t.csv").exists()
+
+
+def test_parse_values_ranges_include_the_stop():
+    assert sw.parse_values("0.5:1.5:0.25", "--lengths") == [0.5, 0.75, 1.0, 1.25, 1.5]
+    assert sw.parse_values("0:0.3:0.1", "x") == [0.0, 0.1, 0.2, 0.3]  # 0.3/0.1 = 2.9999...
+    assert sw.parse_values("0:0.35:0.1", "x") == [0.0, 0.1, 0.2, 0.3]
+    assert sw.parse_values("2", "x", int) == [2]
+
+
+# -- real solves: kill -9 and Dask -------------------------------------------------------------
+KILL_GRID = dict(length=0.3, tip_width=[1.0, 0.0], curvature=[0.0, 2.5], hmax=0.2)
+KILL_ARGS = ["--lengths", "0.3", "--tip-widths", "1,0", "--curvatures", "0,2.5", "--hmax", "0.2"]
+N_KILL = 4
+
+
+def _cli(table, workers):
+    return [sys.executable, "-m", "skfem_sheet", "sweep", *KILL_ARGS, "--table", str(table),
+            "--workers", str(workers), "--quiet"]
+
+
+def _valid_lines(data):
+    """The records of the complete JSON lines of journal bytes."""
+    out = []
+    for line in data.split(b"\n"):
+        try:
+            out.append(json.loads(line))
+        except (ValueError, UnicodeDecodeError):
+            pass
+    return out
+
+
+@pytest.fixture(scope="module")
+def killed_and_resumed(tmp_path_factory):
+    """A 2-process sweep killed with SIGKILL (with its workers) halfway, then run again."""
+    table = tmp_path_factory.mktemp("kill") / "t.csv"
+    jp = journal_path(table)
+    proc = subprocess.Popen(_cli(table, 2), start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 240
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            if os.path.exists(jp) and Path(jp).read_bytes().count(b"\n") >= 1:
+                break
+            time.sleep(0.02)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)  # the sweep and its worker processes
+        proc.communicate()
+    before = Path(jp).read_bytes() if os.path.exists(jp) else b""
+    resumed = subprocess.run(_cli(table, 2), capture_output=True, text=True, timeout=300)
+    return dict(table=table, kill_rc=proc.returncode, before=before, resumed=resumed)
+
+
+def test_kill_9_halfway_then_restart_gives_every_point_exactly_once(killed_and_resumed):
+    k = killed_and_resumed
+    assert k["kill_rc"] == -signal.SIGKILL, "the sweep finished before it could be killed"
+    n_before = len(_valid_lines(k["before"]))
+    assert 1 <= n_before < N_KILL
+    r = k["resumed"]
+    assert r.returncode == 0, r.stderr
+    assert f"{N_KILL} points, {N_KILL} converged, 0 failed ({N_KILL - n_before} computed now, " \
+           f"{n_before} from earlier runs)" in r.stdout
+    journal = Path(journal_path(k["table"])).read_bytes()
+    assert journal.startswith(k["before"])  # finished points were never rewritten
+    keys = [rec["key"] for rec in _valid_lines(journal)]
+    expected = [point_key(p) for p in grid(**KILL_GRID)]
+    assert sorted(keys) == sorted(expected)  # every point exactly once
+    table = pd.read_csv(k["table"])
+    assert list(table.key) == expected and table.converged.all()
+
+
+def test_dask_local_cluster_gives_the_process_pool_table(killed_and_resumed, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    import logging
+
+    pool = pd.read_csv(killed_and_resumed["table"])
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+        df = run_sweep(grid(**KILL_GRID), table=tmp_path / "dask.csv",
+                       scheduler=cluster.scheduler_address, progress=False)
+    dask = pd.read_csv(tmp_path / "dask.csv")
+    assert len(df) == len(dask) == len(pool) == N_KILL
+    same = ["key", "length", "tip_width", "curvature", "thickness", "modulus", "path", "hmax",
+            "layers", "solver", "converged", "message", "branch", "stable", "snapped",
+            "newton_iterations", "load_steps", "dofs", "version", "error", "layers_used",
+            "linear_solver"]
+    pd.testing.assert_frame_equal(dask[same], pool[same])
+    for col in ("deflection", "energy", "volume_change"):
+        np.testing.assert_allclose(dask[col], pool[col], rtol=0, atol=1e-12, err_msg=col)
+
+
+def _crashing_task(points):
+    """A stand-in for the worker's chunk task: length 0.9 kills its worker process."""
+    out = []
+    for p in points:
+        if p["length"] == 0.9:
+            os._exit(3)
+        rec = sw._record(p, point_key(p))
+        rec.update(deflection=p["length"], converged=True)
+        out.append(rec)
+    return out
+
+
+@pytest.mark.slow  # about 5 worker processes start (10 s on a busy 2-core machine)
+def test_a_point_that_kills_its_worker_is_a_failed_row_and_the_rest_go_on():
+    pts = grid(length=[0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
+    recs = [r for batch in sw._pool(sw._chunks(pts, 2, chunk_size=2), 2, task=_crashing_task)
+            for r in batch]
+    assert sorted(r["key"] for r in recs) == sorted(point_key(p) for p in pts)  # each once
+    by = {r["length"]: r for r in recs}
+    assert by[0.9]["error"] == "WorkerDied" and not by[0.9]["converged"]
+    assert "worker process died" in by[0.9]["message"]
+    assert all(by[L]["converged"] and by[L]["deflection"] == L for L in (0.5, 0.6, 0.7, 0.8, 1.0))
