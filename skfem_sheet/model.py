@@ -138,8 +138,41 @@ class SheetProblem:
     def __init__(self, sheet: Sheet, mesh: SheetMesh, quadrature_order: int = 2):
         # everything but the material is shared by all problems on one mesh
         self.__dict__.update(_discretization(mesh, quadrature_order))
+        self.quadrature_order = quadrature_order
         self.sheet = sheet
         self.mu = sheet.mu
+        self.length = mesh.length  # current sheet length (see with_length)
+
+    def with_length(self, length: float) -> "SheetProblem":
+        """The same problem for a sheet of another length, on the same mesh
+        stretched in x (``x -> x length / mesh.length``).
+
+        The mesh topology, dof numbering and sparsity pattern are kept, so a
+        nodal solution at one length is a valid initial guess at the next:
+        the length is a continuous parameter of one discrete problem (used by
+        :mod:`skfem_sheet.bistability`).  The stretch is affine, so only the
+        x-derivatives of the basis, the volume weights, the node coordinates
+        and the loads change.  Elements degrade when the stretch is large;
+        callers remesh beyond a factor of about 1.4.
+        """
+        from .params import check_range
+
+        length = check_range("length", length, 0, None, lo_open=True)
+        ref = _discretization(self.sheet_mesh, self.quadrature_order)
+        s = length / self.sheet_mesh.length
+        new = object.__new__(SheetProblem)
+        new.__dict__.update(self.__dict__)
+        new.sheet = self.sheet.replace(length=length)
+        new.length = length
+        new.dphi = ref["dphi"].copy()
+        new.dphi[..., 0] /= s
+        new.dx = ref["dx"] * s
+        new.nodes = ref["nodes"] * np.array([s, 1.0, 1.0])
+        new._lap = np.einsum("eq,eqaj,eqbj->eab", new.dx, new.dphi, new.dphi)
+        new.gravity_load = ref["gravity_load"] * s
+        new.mass_data = ref["mass_data"] * s
+        new.volume0 = ref["volume0"] * s
+        return new
 
     @property
     def n_free(self) -> int:

@@ -19,7 +19,7 @@ __all__ = ["midline_nodes", "midline_heights", "tip_deflection"]
 def midline_nodes(problem, x):
     """Indices of the quadratic nodes on the mid-line ``(x, y, 0)``, sorted by y."""
     X = problem.nodes
-    tol = 1e-9 * max(1.0, problem.sheet_mesh.length)
+    tol = 1e-9 * max(1.0, problem.length)
     idx = np.flatnonzero((np.abs(X[:, 0] - x) < tol) & (np.abs(X[:, 2]) < tol))
     if len(idx) == 0:
         raise RuntimeError(f"no mesh node on the mid-line x = {x}")
@@ -37,5 +37,5 @@ def midline_heights(problem, w, x):
 def tip_deflection(problem, w):
     """Signed tip deflection d (positive downward)."""
     _, zc = midline_heights(problem, w, 0.0)
-    _, zf = midline_heights(problem, w, problem.sheet_mesh.length)
+    _, zf = midline_heights(problem, w, problem.length)
     return float(zc.min() - zf.min())

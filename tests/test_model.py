@@ -144,3 +144,33 @@ def test_half_problem_has_symmetry_plane_fixed():
     away = on_plane & (half.nodes[:, 0] > 1e-9)
     assert np.isin(3 * np.flatnonzero(away), half.free).all()
     assert np.isin(3 * np.flatnonzero(away) + 2, half.free).all()
+
+
+def test_stretched_problem_equals_a_fresh_mesh_of_that_length():
+    """with_length(L) on a mesh built for L0 is the problem on the mesh built
+    for L0 and stretched: it must give the same energy as a direct mapping of
+    the nodes (an exact affine change of variables)."""
+    s0 = Sheet(length=1.0, tip_width=0.6, curvature=1.5)
+    p0 = SheetProblem(s0, sheet_mesh(s0, 0.2, layers=2, half=True))
+    p1 = p0.with_length(1.3)
+    assert p1.sheet.length == 1.3 and p1.length == 1.3
+    assert p1.nodes[:, 0].max() == pytest.approx(1.3)
+    assert p1.volume0 == pytest.approx(1.3 * p0.volume0)
+    # a state that is a function of the physical position: U = f(X)
+    def state(p):
+        X = p.nodes
+        w = np.zeros(p.ndof)
+        U = np.stack([0.01 * X[:, 0] * X[:, 1], 0.02 * X[:, 0] ** 2, -0.1 * X[:, 0] ** 2], 1)
+        w[: p.nu_dof] = U.ravel()
+        return w
+    # the same physical configuration on a mesh built directly at L = 1.3: a
+    # quadratic field is exact on both meshes, so the energies differ only by
+    # quadrature of the nonlinear density on different tetrahedra (3e-10 here)
+    s1 = s0.replace(length=1.3)
+    direct = SheetProblem(s1, sheet_mesh(s1, 0.2, layers=2, half=True))
+    e1, ed = p1.energy(state(p1), 1.0), direct.energy(state(direct), 1.0)
+    assert e1 == pytest.approx(ed, rel=1e-8)
+    # stretching back is the identity
+    back = p1.with_length(1.0)
+    np.testing.assert_allclose(back.dphi, p0.dphi)
+    np.testing.assert_allclose(back.gravity_load, p0.gravity_load)

@@ -1,0 +1,671 @@
+"""Bistability: continuation in the sheet length, fold lengths, stability, the S-curve.
+
+In the bistable range a sheet has two stable equilibria (paper, Figs. 2, 4, 6
+and 7): the curvature-dominated (aloft) one, which exists up to the
+*standout length* ``L1*``, and the gravity-dominated (drooped) one, which
+exists down to the *pop-up length* ``L0*``.  The sheet is bistable for
+``L0* < L < L1*``; between the two stable branches lies an unstable one, and
+the three form an S-shaped curve of ``d`` against ``L`` whose turning points
+(folds) are ``L0*`` and ``L1*``.
+
+How the length is made a continuous parameter: a problem built on a mesh of
+length ``L_m`` is stretched in x to any nearby length
+(:meth:`skfem_sheet.model.SheetProblem.with_length`), so one mesh topology
+carries the nodal solution from one length to the next; beyond a stretch of
+1.35 the sheet is remeshed at the current length and the solution is
+interpolated onto the new mesh (:func:`transfer`).
+
+Functions
+---------
+:func:`follow_length`
+    natural continuation in L from a solved sheet, until the branch is lost:
+    the fold is bracketed by step halving to ``tol`` (bisection);
+:func:`fold_lengths`
+    ``L0*`` and ``L1*`` of one (b, a/R): curvature-first from a short sheet
+    with increasing L, gravity-first from a long sheet with decreasing L;
+:func:`s_curve`
+    pseudo-arclength continuation in L through both folds, tracing the
+    unstable middle branch;
+:func:`stability`
+    stable or not, from the inertia of the constrained tangent.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .continuation import follow_path
+from .linalg import LinearSolverError, make_linear_solver
+from .mesh import sheet_mesh
+from .model import SheetProblem
+from .newton import NewtonOptions, Stats, newton
+from .observables import tip_deflection
+from .params import ParameterError, Sheet, check_range
+
+__all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
+           "follow_length", "fold_lengths", "s_curve", "add_bistability_subparser"]
+
+#: Remesh when the stretch of the current mesh leaves [1/MAX_STRETCH, MAX_STRETCH].
+MAX_STRETCH = 1.35
+
+
+@dataclass(frozen=True)
+class BranchPoint:
+    """One equilibrium at full load: length, tip deflection, stability."""
+
+    length: float
+    deflection: float
+    stable: object  # bool or None (solver cannot tell)
+    negative_eigenvalues: object = None
+    newton_iterations: int = 0
+
+
+@dataclass(frozen=True)
+class Branch:
+    """Result of :func:`follow_length`.
+
+    Attributes
+    ----------
+    points : tuple of BranchPoint
+        The converged equilibria, in the order of the continuation.
+    fold : float or None
+        The length where the branch was lost (midpoint of the bracket), or
+        None if it held over the whole range.
+    bracket : tuple
+        ``(last length on the branch, first length where it was not found)``.
+    reason : str
+        Why the branch was declared lost at the bracket's end.
+    """
+
+    points: tuple
+    fold: object = None
+    bracket: tuple = ()
+    reason: str = ""
+    newton_iterations: int = 0
+    wall_time_s: float = 0.0
+
+    @property
+    def lengths(self):
+        return np.array([p.length for p in self.points])
+
+    @property
+    def deflections(self):
+        return np.array([p.deflection for p in self.points])
+
+
+# ----------------------------------------------------------------------------
+# kernels: stability, transfer between meshes, derivative in L
+# ----------------------------------------------------------------------------
+def stability(problem, solver):
+    """``(stable, n_negative)`` from the inertia of the last factorised tangent.
+
+    The reduced tangent ``[[A, B^T], [B, 0]]`` with ``m`` free pressure dofs
+    (``B`` of full rank) has ``m + k`` negative eigenvalues, where ``k`` is the
+    number of negative eigenvalues of ``A`` on the incompressible subspace
+    ``ker B`` (Sylvester's law of inertia on the null-space decomposition).
+    The equilibrium is stable iff ``k = 0`` and no eigenvalue vanishes.
+    Returns ``(None, None)`` if the back-end does not report the inertia.
+    """
+    inertia = getattr(solver, "inertia", None)
+    inertia = inertia() if inertia is not None else None
+    if inertia is None:
+        return None, None
+    _, n_neg, n_zero = inertia
+    m = int(np.count_nonzero(problem.free >= problem.nu_dof))
+    k = int(n_neg) - m
+    return bool(k == 0 and n_zero == 0), k
+
+
+def transfer(old, w_old, new):
+    """Interpolate a state from problem ``old`` onto problem ``new``.
+
+    Both describe the same sheet at the same length (``old`` may be a
+    stretched mesh): displacements (P2) and pressures (P1) are evaluated at
+    the nodes of ``new``; clamped values are copied exactly.
+    """
+    s_old = old.length / old.sheet_mesh.length
+    X = new.nodes / np.array([s_old, 1.0, 1.0])  # in old's mesh coordinates
+    X = _clip_to_sheet(X, old.sheet_mesh)
+    U_old, p_old = old.split(w_old)
+    P2 = old.basis_u.probes(X.T)
+    n_v = new.sheet_mesh.n_vertices
+    P1 = old.basis_p.probes(X[:n_v].T)  # P2 vertex nodes come first (skfem numbering)
+    w = np.zeros(new.ndof)
+    w[: new.nu_dof] = (P2 @ U_old).ravel()
+    w[new.nu_dof:] = P1 @ p_old
+    return w
+
+
+def _clip_to_sheet(X, mesh, eps=1e-12):
+    """Move points that round-off put just outside the trapezoid back in."""
+    X = X.copy()
+    L, b, h = mesh.length, mesh.tip_width, mesh.thickness
+    X[:, 0] = np.clip(X[:, 0], 0.0, L)
+    half_width = 0.5 * (1.0 + (b - 1.0) * X[:, 0] / L)
+    lo = 0.0 if mesh.half else -1.0
+    X[:, 1] = np.clip(X[:, 1], lo * half_width, half_width) * (1 - eps)
+    X[:, 2] = np.clip(X[:, 2], -h / 2, h / 2)
+    return X
+
+
+def _residual_rate(problem, w, g=1.0, rel=1e-6):
+    """``d r / d L`` at fixed nodal state (central difference on the stretch)."""
+    eps = rel * problem.length
+    rp, _ = problem.with_length(problem.length + eps).residual(w, g)
+    rm, _ = problem.with_length(problem.length - eps).residual(w, g)
+    return (rp - rm) / (2 * eps)
+
+
+def _length_tangent(problem, w, solver):
+    """``dw/dL`` on the free dofs, with the last factorisation: ``K dw = -dr/dL``."""
+    dw = np.zeros(problem.ndof)
+    dw[problem.free] = solver.solve(-_residual_rate(problem, w)[problem.free])
+    return dw
+
+
+# ----------------------------------------------------------------------------
+# a sheet that changes length: one mesh, stretched, remeshed when needed
+# ----------------------------------------------------------------------------
+class _Stretched:
+    """The current mesh (built at some length) and the linear solver on it."""
+
+    def __init__(self, sheet, hmax, layers, solver, symmetric):
+        self.hmax, self.layers, self.solver_name, self.half = hmax, layers, solver, symmetric
+        self._build(sheet)
+
+    def _build(self, sheet):
+        self.base = SheetProblem(sheet, sheet_mesh(sheet, self.hmax, self.layers, half=self.half))
+        self.solver = make_linear_solver(self.solver_name)
+        if hasattr(self.solver, "attach"):
+            self.solver.attach(self.base)
+
+    def at(self, length):
+        return self.base.with_length(length)
+
+    def needs_remesh(self, length):
+        s = length / self.base.sheet_mesh.length
+        return not 1.0 / MAX_STRETCH <= s <= MAX_STRETCH
+
+    def remesh(self, problem, w, options, stats, path):
+        """New mesh at ``problem.length``; returns ``(problem, state)`` or None.
+
+        The state is interpolated onto the new mesh and re-converged.  An
+        interpolated thin-sheet state is not exactly incompressible on the new
+        mesh, and Newton may need many iterations from it; if it fails within
+        ``options.max_iterations``, the new mesh is solved afresh along the
+        branch's own load path (which selects the same branch inside the
+        bistable range; the caller checks the deflection for continuity).
+        """
+        old = problem
+        self._build(problem.sheet)
+        new = self.base
+        res = newton(new, transfer(old, w, new), 1.0, self.solver, options, stats)
+        if res.converged:
+            return new, res.w
+        out = follow_path(new, path, new.sheet.curvature, self.solver, stats=stats)
+        return (new, out.w) if out.converged else None
+
+
+def _check_common(sheet, hmax, step, tol):
+    if not isinstance(sheet, Sheet):
+        raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
+    check_range("hmax", hmax, 0, None, lo_open=True)
+    check_range("step", step, 0, 1, lo_open=True)
+    check_range("tol", tol, 0, step, lo_open=True)
+
+
+def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", hmax: float = 0.06,
+                  layers=None, solver: str = "auto", symmetric: bool = True, step: float = 0.1,
+                  tol: float = 0.005, jump: float = 0.1, progress=None) -> Branch:
+    """Follow the branch selected by ``path`` at ``sheet.length`` to ``stop``.
+
+    Natural continuation in L at full load: each step is predicted with
+    ``dw/dL`` and corrected by Newton.  A step fails if Newton does not
+    converge, if the equilibrium found is unstable, or if the deflection
+    jumps by more than ``jump`` (it landed on another branch); then the step
+    is halved from the last equilibrium.  When a failing step is no longer
+    than ``2 tol`` the branch is lost there: the fold is the middle of the
+    bracket, to ``+- tol`` (bisection).
+
+    Parameters
+    ----------
+    sheet : Sheet
+        Start: its length, tip width and curvature.
+    stop : float
+        Length at which to stop if the branch holds (above or below the start).
+    path : {"curvature-first", "gravity-first"}
+        Load path of the starting solve (selects the branch).
+    step : float
+        Largest length step.
+    tol : float
+        Half-width of the final fold bracket.
+
+    Returns
+    -------
+    Branch
+
+    Examples
+    --------
+    >>> b = follow_length(Sheet(length=0.5, curvature=2.5), 0.7, hmax=0.15, step=0.1)
+    >>> b.fold is None, len(b.points)
+    (True, 3)
+    """
+    _check_common(sheet, hmax, step, tol)
+    stop = check_range("stop", stop, 0.05, 20.0)
+    t0 = time.perf_counter()
+    direction = 1.0 if stop >= sheet.length else -1.0
+    stats = Stats()
+    tight = NewtonOptions()
+    track = _Stretched(sheet, hmax, layers, solver, symmetric)
+    problem = track.at(sheet.length)
+    out = follow_path(problem, path, sheet.curvature, track.solver, stats=stats)
+    if not out.converged:
+        raise ParameterError(f"the starting sheet (length {sheet.length:g}) could not be solved "
+                             f"along {path}: {out.reason}")
+    w = out.w
+    st, k = stability(problem, track.solver)
+    d = tip_deflection(problem, w)
+    points = [BranchPoint(problem.length, d, st, k, stats.newton_iterations)]
+    dwdL = _length_tangent(problem, w, track.solver)
+    h = step
+    scale = max(1.0, sheet.length)
+    fold, bracket, reason = None, (), ""
+    while direction * (stop - problem.length) > 1e-12:
+        L_try = problem.length + direction * min(h, abs(stop - problem.length))
+        if track.needs_remesh(L_try):
+            moved = track.remesh(problem, w, tight, stats, path)
+            d_here = tip_deflection(*moved) if moved is not None else np.nan
+            if not abs(d_here - points[-1].deflection) <= jump:
+                reason = (f"remeshing at L = {problem.length:.4g} failed" if moved is None else
+                          f"remeshing at L = {problem.length:.4g} landed on another branch "
+                          f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
+                break
+            problem, w = moved
+            dwdL = _length_tangent(problem, w, track.solver)
+        trial = track.at(L_try)
+        w_pred = w + (L_try - problem.length) * dwdL
+        its0 = stats.newton_iterations
+        res = newton(trial, w_pred, 1.0, track.solver, tight, stats,
+                     max_first_increment=0.25 * scale)
+        why = "" if res.converged else f"Newton: {res.reason}"
+        if res.converged:
+            st, k = stability(trial, track.solver)
+            d_new = tip_deflection(trial, res.w)
+            if st is False:
+                why = f"unstable equilibrium ({k} negative eigenvalues)"
+            elif abs(d_new - points[-1].deflection) > jump:
+                why = f"deflection jumped from {points[-1].deflection:.4g} to {d_new:.4g}"
+        if not why:
+            problem, w = trial, res.w
+            points.append(BranchPoint(float(L_try), d_new, st, k, stats.newton_iterations - its0))
+            dwdL = _length_tangent(problem, w, track.solver)
+            h = min(step, 1.5 * h)
+            if progress is not None:
+                progress(problem.length)
+            continue
+        if abs(L_try - problem.length) <= 2 * tol + 1e-12:
+            bracket = (problem.length, L_try)
+            fold, reason = 0.5 * (problem.length + L_try), why
+            break
+        h = max(0.5 * abs(L_try - problem.length), tol)  # dwdL (a vector) is still valid
+    return Branch(tuple(points), fold, bracket, reason, stats.newton_iterations,
+                  time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class Bistability:
+    """Pop-up and standout lengths of one (tip width, curvature).
+
+    Attributes
+    ----------
+    popup_length : float or None
+        ``L0*``: below it the gravity-dominated branch does not exist (None if
+        it held down to the lower end of the range).
+    standout_length : float or None
+        ``L1*``: above it the curvature-dominated branch does not exist (None
+        if it held up to the upper end).
+    bistable : bool
+        Both folds found with ``L0* < L1*``.
+    increasing, decreasing : Branch
+        The two continuations (curvature-first from the short end,
+        gravity-first from the long end).
+    """
+
+    tip_width: float
+    curvature: float
+    hmax: float
+    length_range: tuple
+    popup_length: object
+    standout_length: object
+    bistable: bool
+    increasing: Branch
+    decreasing: Branch
+    tol: float = 0.005
+    wall_time_s: float = 0.0
+
+    def summary(self) -> dict:
+        """JSON-ready summary (the CLI's ``--json``)."""
+        from . import __version__
+
+        def branch(b):
+            return {"lengths": b.lengths.tolist(), "deflection": b.deflections.tolist(),
+                    "stable": [p.stable for p in b.points], "fold": b.fold,
+                    "bracket": list(b.bracket), "reason": b.reason,
+                    "newton_iterations": b.newton_iterations, "wall_time_s": b.wall_time_s}
+
+        return {"popup_length": self.popup_length, "standout_length": self.standout_length,
+                "bistable": self.bistable, "tip_width": self.tip_width,
+                "curvature": self.curvature, "hmax": self.hmax, "tol": self.tol,
+                "length_range": list(self.length_range),
+                "curvature_dominated": branch(self.increasing),
+                "gravity_dominated": branch(self.decreasing),
+                "wall_time_s": self.wall_time_s, "version": __version__}
+
+
+def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6, 2.4),
+                 hmax: float = 0.06, layers=None, solver: str = "auto", step: float = 0.1,
+                 tol: float = 0.005, thickness: float = 0.03, modulus: float = 735.0,
+                 progress: bool = False) -> Bistability:
+    """Standout and pop-up lengths by continuation in L in both directions.
+
+    The curvature-dominated branch is followed from ``lengths[0]``
+    (curvature-first) with increasing L until it is lost (``L1*``), the
+    gravity-dominated one from ``lengths[1]`` (gravity-first) with decreasing
+    L (``L0*``).  Each fold is located to ``+- tol``.
+
+    Examples
+    --------
+    >>> r = fold_lengths(0.0, 2.5, lengths=(0.8, 1.2), hmax=0.15, step=0.2)
+    >>> r.bistable
+    False
+    """
+    lo, hi = (check_range("lengths", float(x), 0.05, 20.0) for x in lengths)
+    if not lo < hi:
+        raise ParameterError(f"lengths must be (short, long) with short < long, got {lengths!r}")
+    t0 = time.perf_counter()
+    base = Sheet(length=lo, tip_width=tip_width, curvature=curvature, thickness=thickness,
+                 modulus=modulus)
+    _check_common(base, hmax, step, tol)
+    bars = _bars(progress, lo, hi)
+    up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
+                       solver=solver, step=step, tol=tol, progress=bars[0])
+    down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
+                         layers=layers, solver=solver, step=step, tol=tol, progress=bars[1])
+    for b in bars:
+        if b is not None:
+            b.close()
+    L1, L0 = up.fold, down.fold
+    return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
+                       bool(L0 is not None and L1 is not None and L0 < L1), up, down, tol,
+                       time.perf_counter() - t0)
+
+
+class _Bar:
+    def __init__(self, desc, start, stop):
+        from tqdm.auto import tqdm
+
+        self.start = start
+        self.bar = tqdm(total=round(abs(stop - start), 3), desc=desc, unit="L",
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| L={postfix}")
+
+    def __call__(self, length):
+        self.bar.n = round(abs(length - self.start), 3)
+        self.bar.set_postfix_str(f"{length:.3f}", refresh=True)
+
+    def close(self):
+        self.bar.close()
+
+
+def _bars(progress, lo, hi):
+    if not progress:
+        return None, None
+    return _Bar("curvature-dominated, L up", lo, hi), _Bar("gravity-dominated, L down", hi, lo)
+
+
+# ----------------------------------------------------------------------------
+# pseudo-arclength continuation: the whole S-curve
+# ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SCurve:
+    """The curve of equilibria d(L) traced by pseudo-arclength continuation.
+
+    Attributes
+    ----------
+    points : tuple of BranchPoint
+        In arclength order (the length goes up, back at ``L1*``, up again after ``L0*``).
+    folds : tuple of float
+        Lengths of the turning points (where dL/ds changes sign), in order.
+    """
+
+    points: tuple
+    folds: tuple
+    converged: bool
+    message: str = ""
+    newton_iterations: int = 0
+    wall_time_s: float = 0.0
+
+    @property
+    def lengths(self):
+        return np.array([p.length for p in self.points])
+
+    @property
+    def deflections(self):
+        return np.array([p.deflection for p in self.points])
+
+    def summary(self) -> dict:
+        return {"lengths": self.lengths.tolist(), "deflection": self.deflections.tolist(),
+                "stable": [p.stable for p in self.points], "folds": list(self.folds),
+                "converged": self.converged, "message": self.message,
+                "newton_iterations": self.newton_iterations, "wall_time_s": self.wall_time_s}
+
+
+def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solver: str = "auto",
+            symmetric: bool = True, ds: float = 0.05, ds_max: float = 0.15, max_points: int = 200,
+            progress=None) -> SCurve:
+    """Pseudo-arclength continuation in L from the curvature-dominated state
+    at ``sheet.length`` until the length exceeds ``stop`` (on whatever branch).
+
+    Unknowns ``(w, L)``; the equilibrium equations are bordered by the
+    arclength condition ``<t_u, u - u_0> + t_L (L - L_0) = ds`` with the inner
+    product ``<a, b> = a_tip b_tip + theta a . b``: the vertical displacement
+    of the tip's centre (so that steps are even along the plotted curve
+    d(L)) plus the root-mean-square of all displacements (``theta = 1 /
+    number of displacement unknowns``), all in units of a; the pressures
+    are left out of the norm.  Each corrector
+    iteration solves the bordered system with two back-substitutions of the
+    tangent (bordering algorithm), which stays usable through the fold where
+    the tangent alone is singular.  Turning points are located where ``t_L``
+    changes sign, by the vertex of the parabola ``L(s)`` through the three
+    points around it.
+
+    One mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop``
+    must be within a factor 1.8 of each other.
+    """
+    _check_common(sheet, hmax, 0.5, 0.01)
+    stop = check_range("stop", stop, sheet.length, 20.0, lo_open=True)
+    if stop / sheet.length > MAX_STRETCH**2:
+        raise ParameterError(f"stop must be at most {MAX_STRETCH**2:.2f} times the start length "
+                             f"({sheet.length:g}) for one stretched mesh, got {stop:g}")
+    t0 = time.perf_counter()
+    stats = Stats()
+    mid = np.sqrt(sheet.length * stop)
+    track = _Stretched(sheet.replace(length=mid), hmax, layers, solver, symmetric)
+    problem = track.at(sheet.length)
+    out = follow_path(problem, "curvature-first", sheet.curvature, track.solver, stats=stats)
+    if not out.converged:
+        raise ParameterError(f"the starting sheet could not be solved: {out.reason}")
+    w, L = out.w, sheet.length
+    nu = problem.nu_dof
+    free = problem.free
+    u_free = free < nu
+    theta = 1.0 / np.count_nonzero(u_free)
+    from .observables import midline_nodes
+
+    tip_nodes = midline_nodes(problem, problem.length)
+    tip = 3 * tip_nodes[np.argmin(np.abs(problem.nodes[tip_nodes, 1]))] + 2
+    tip_f = int(np.searchsorted(free, tip))  # its position among the free dofs
+
+    def dot(a, b):  # on full-length displacement vectors
+        return theta * float(np.dot(a[:nu], b[:nu])) + float(a[tip] * b[tip])
+    rref = float(np.linalg.norm(problem.gravity_load[free]))
+    opts = NewtonOptions()
+
+    def tangent_at(prob, w, prev=None):
+        b = np.zeros(problem.ndof)
+        b[free] = track.solver.solve(_residual_rate(prob, w)[free])
+        t_w, t_L = -b, 1.0
+        n = np.sqrt(dot(t_w, t_w) + t_L**2)
+        t_w, t_L = t_w / n, t_L / n
+        if prev is not None and (dot(t_w, prev[0]) + t_L * prev[1]) < 0:
+            t_w, t_L = -t_w, -t_L
+        return t_w, t_L
+
+    st, k = stability(problem, track.solver)
+    points = [BranchPoint(L, tip_deflection(problem, w), st, k, 0)]
+    tL_hist, s_hist, s = [], [], 0.0
+    t = tangent_at(problem, w)
+    tL_hist.append(t[1])
+    s_hist.append(0.0)
+    h, message, converged = ds, "", False
+    while len(points) < max_points:
+        t_w, t_L = t
+        w_p = w + h * t_w
+        L_p = L + h * t_L
+        ok, its = False, 0
+        wk, Lk = w_p.copy(), L_p
+        for its in range(1, opts.max_iterations + 1):
+            prob = track.at(Lk)
+            r, Jmin = prob.residual(wk, 1.0)
+            if not Jmin > 0:
+                break
+            N = dot(t_w, wk - w) + t_L * (Lk - L) - h
+            rn = float(np.linalg.norm(r[free]))
+            K = prob.tangent(wk)
+            try:
+                track.solver.factorize(K)
+            except LinearSolverError:
+                break
+            stats.factorizations += 1
+            stats.newton_iterations += 1
+            a = track.solver.solve(-r[free])
+            b = track.solver.solve(_residual_rate(prob, wk)[free])
+            tf = t_w[free]
+            ta = theta * float(np.dot(tf[u_free], a[u_free])) + tf[tip_f] * a[tip_f]
+            tb = theta * float(np.dot(tf[u_free], b[u_free])) + tf[tip_f] * b[tip_f]
+            dL = (-N - ta) / (t_L - tb)
+            dw = a - dL * b
+            wk[free] += dw
+            Lk += dL
+            if rn <= opts.rtol * rref and max(np.abs(dw[u_free]).max(), abs(dL)) <= opts.utol:
+                ok = True
+                break
+            if max(np.abs(dw[u_free]).max(), abs(dL)) > 0.5:
+                break
+        if not ok:
+            h *= 0.5
+            if h < 1e-3:
+                message = f"arclength step below 1e-3 at L = {L:.4g}"
+                break
+            continue
+        # accept: the factorisation is at (almost) the new point
+        prob = track.at(Lk)
+        w, L = wk, Lk
+        s += h
+        st, k = stability(prob, track.solver)
+        points.append(BranchPoint(float(L), tip_deflection(prob, w), st, k, its))
+        t = tangent_at(prob, w, prev=t)
+        tL_hist.append(t[1])
+        s_hist.append(s)
+        if progress is not None:
+            progress(L)
+        h = min(ds_max, h * (1.5 if its <= 3 else 1.0))
+        if L > stop:
+            converged = True
+            break
+    folds = _turning_points(np.array(s_hist), np.array(tL_hist), points)
+    return SCurve(tuple(points), tuple(folds), converged, message, stats.newton_iterations,
+                  time.perf_counter() - t0)
+
+
+def _turning_points(s, tL, points):
+    """Lengths where ``dL/ds`` changes sign: vertex of the parabola through
+    the three points around the sign change."""
+    L = np.array([p.length for p in points])
+    folds = []
+    for i in range(1, len(tL)):
+        if np.sign(tL[i]) != np.sign(tL[i - 1]):
+            j = min(max(i - 1, 1), len(L) - 2)  # centre of a 3-point stencil
+            c = np.polyfit(s[j - 1:j + 2], L[j - 1:j + 2], 2)
+            sv = -c[1] / (2 * c[0]) if c[0] != 0 else s[j]
+            folds.append(float(np.polyval(c, np.clip(sv, s[j - 1], s[j + 1]))))
+    return folds
+
+
+# ----------------------------------------------------------------------------
+# command line
+# ----------------------------------------------------------------------------
+def add_bistability_subparser(sub):
+    """``python -m skfem_sheet bistability ...`` (registered by :mod:`skfem_sheet.cli`)."""
+    p = sub.add_parser("bistability",
+                       help="pop-up and standout lengths (continuation in L), optional S-curve")
+    p.add_argument("--tip-width", type=float, default=1.0, help="b/a (1 rectangle, 0 triangle)")
+    p.add_argument("--curvature", type=float, default=2.5, help="a/R, clamp curvature")
+    p.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
+    p.add_argument("--modulus", type=float, default=735.0, help="E/(rho g a) (default 735)")
+    p.add_argument("--lengths", default="0.6:2.4",
+                   help="range of L/a searched, short:long (default 0.6:2.4)")
+    p.add_argument("--hmax", type=float, default=0.06, help="mesh size (default 0.06)")
+    p.add_argument("--layers", type=int, default=None)
+    p.add_argument("--solver", default="auto")
+    p.add_argument("--step", type=float, default=0.1, help="largest length step (default 0.1)")
+    p.add_argument("--tol", type=float, default=0.005, help="fold bracket half-width (default 0.005)")
+    p.add_argument("--s-curve", action="store_true",
+                   help="also trace the whole S-curve by pseudo-arclength continuation")
+    p.add_argument("--json", default=None, help="write the result here")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_cli)
+
+
+def _parse_range(text):
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise ParameterError(f"lengths must be short:long, e.g. 0.6:2.4, got {text!r}") from None
+    return lo, hi
+
+
+def _cli(args):
+    from .io import check_writable, write_json
+
+    if args.json:
+        check_writable("--json", args.json, [".json"])
+    Sheet(length=1.0, tip_width=args.tip_width, curvature=args.curvature,
+          thickness=args.thickness, modulus=args.modulus)  # validates the parameters
+    lo, hi = _parse_range(args.lengths)
+    r = fold_lengths(args.tip_width, args.curvature, lengths=(lo, hi), hmax=args.hmax,
+                     layers=args.layers, solver=args.solver, step=args.step, tol=args.tol,
+                     thickness=args.thickness, modulus=args.modulus, progress=not args.quiet)
+    data = r.summary()
+
+    def fmt(x):
+        return "none in range" if x is None else f"{x:.3f} +- {r.tol:g}"
+
+    print(f"b/a = {args.tip_width:g}, a/R = {args.curvature:g}, hmax = {args.hmax:g}:")
+    print(f"  standout length L1*/a = {fmt(r.standout_length)}  ({r.increasing.reason or 'held'})")
+    print(f"  pop-up length   L0*/a = {fmt(r.popup_length)}  ({r.decreasing.reason or 'held'})")
+    print(f"  bistable: {'yes' if r.bistable else 'no'}  ({r.wall_time_s:.0f} s)")
+    if args.s_curve and r.bistable:
+        a, b = r.popup_length, r.standout_length
+        start, stop = max(lo, a - 0.15), min(hi, b + 0.15)
+        sc = s_curve(Sheet(length=start, tip_width=args.tip_width, curvature=args.curvature,
+                           thickness=args.thickness, modulus=args.modulus), stop,
+                     hmax=args.hmax, layers=args.layers, solver=args.solver)
+        data["s_curve"] = sc.summary()
+        print(f"  S-curve: {len(sc.points)} points, folds at L/a = "
+              + ", ".join(f"{x:.3f}" for x in sc.folds))
+    if args.json:
+        write_json(data, args.json)
+        print(f"  wrote {args.json}")
+    return 0
