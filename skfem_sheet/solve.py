@@ -237,6 +237,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     t0 = time.perf_counter()
     stats = Stats()
     problem = _problem(sheet, hmax, layers, quadrature_order, bool(symmetric))
+    if hasattr(linear, "attach"):  # back-ends that need the dof structure (pyamg)
+        linear.attach(problem)
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -258,6 +260,10 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if bar is not None:
             bar.close()
     w = out.w
+    from .bistability import stability
+
+    # inertia of the last factorised tangent (Newton's last iterate but one)
+    stable, n_neg = stability(problem, linear) if out.converged else (None, None)
     result = Result(
         sheet=sheet, path=path, hmax=hmax,
         deflection=tip_deflection(problem, w), converged=out.converged,
@@ -271,7 +277,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
         solver=linear.name, layers=problem.sheet_mesh.layers,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
-        branch=_branch(path, out.snaps), problem=problem, w=w)
+        branch=_branch(path, out.snaps), stable=stable, negative_eigenvalues=n_neg,
+        problem=problem, w=w)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result

@@ -173,3 +173,13 @@ def test_half_model_snaps_to_the_same_state():
     up = solve(sheet, path="curvature-first", hmax=0.1)
     half = solve(sheet, path="gravity-first", hmax=0.1)
     assert half.deflection == pytest.approx(up.deflection, abs=1e-4)
+
+
+def test_both_branches_are_reported_stable():
+    sheet = Sheet(1.3, 1.0, 2.5)
+    for path in ("curvature-first", "gravity-first"):
+        r = solve(sheet, path=path, hmax=0.15)
+        if r.stable is None:
+            pytest.skip("this linear solver does not report the inertia")
+        assert r.stable and r.negative_eigenvalues == 0
+        assert r.summary()["stable"] is True
