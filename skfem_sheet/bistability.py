@@ -23,6 +23,9 @@ Functions
 :func:`fold_lengths`
     ``L0*`` and ``L1*`` of one (b, a/R): curvature-first from a short sheet
     with increasing L, gravity-first from a long sheet with decreasing L;
+:func:`follow_curvature`
+    the same in the clamp curvature at fixed L (critical curvatures
+    ``1/R0*`` and ``1/R1*``);
 :func:`s_curve`
     pseudo-arclength continuation in L through both folds, tracing the
     unstable middle branch;
@@ -45,7 +48,7 @@ from .observables import tip_deflection
 from .params import ParameterError, Sheet, check_range
 
 __all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
-           "follow_length", "fold_lengths", "s_curve", "add_bistability_subparser"]
+           "follow_length", "follow_curvature", "fold_lengths", "s_curve", "add_bistability_subparser"]
 
 #: Remesh when the stretch of the current mesh leaves [1/MAX_STRETCH, MAX_STRETCH].
 MAX_STRETCH = 1.35
@@ -254,41 +257,122 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     """
     _check_common(sheet, hmax, step, tol)
     stop = check_range("stop", stop, 0.05, 20.0)
+    return _follow(_LengthParameter(), sheet, stop, path=path, hmax=hmax, layers=layers,
+                   solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
+                   progress=progress)
+
+
+def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", hmax: float = 0.06,
+                     layers=None, solver: str = "auto", symmetric: bool = True,
+                     step: float = 0.25, tol: float = 0.005, jump: float = 0.1,
+                     progress=None) -> Branch:
+    """Follow a branch in the clamp curvature a/R at fixed length, to ``stop``.
+
+    The same natural continuation as :func:`follow_length`, with the clamp
+    curvature as the parameter (the clamped values change; the mesh does
+    not).  From the gravity-dominated state at a small curvature, increasing
+    a/R finds where it pops up (``1/R0*``); from the curvature-dominated state
+    at a large curvature, decreasing a/R finds where it falls (``1/R1*``).
+    ``Branch.fold`` and the branch points' ``length`` field then hold
+    curvatures.
+
+    Examples
+    --------
+    >>> b = follow_curvature(Sheet(length=0.6, curvature=1.0), 1.5, hmax=0.15, step=0.25)
+    >>> b.fold is None, len(b.points)
+    (True, 3)
+    """
+    _check_common(sheet, hmax, step, tol)
+    stop = check_range("stop", stop, 0.0, 2 * np.pi, hi_open=True)
+    return _follow(_CurvatureParameter(sheet.curvature), sheet, stop, path=path, hmax=hmax,
+                   layers=layers, solver=solver, symmetric=symmetric, step=step, tol=tol,
+                   jump=jump, progress=progress)
+
+
+class _LengthParameter:
+    """The sheet length as continuation parameter (stretched mesh)."""
+
+    name = "L"
+
+    def value(self, problem):
+        return problem.length
+
+    def at(self, track, problem, v):
+        return track.at(v)
+
+    def apply(self, problem, w, v):
+        return w
+
+    def rate(self, problem, w, solver):
+        return _length_tangent(problem, w, solver)
+
+
+class _CurvatureParameter:
+    """The clamp curvature a/R as continuation parameter (clamped values)."""
+
+    name = "a/R"
+
+    def __init__(self, kappa):
+        self.kappa = kappa
+
+    def value(self, problem):
+        return self.kappa
+
+    def at(self, track, problem, v):
+        self.kappa = v
+        return problem
+
+    def apply(self, problem, w, v):
+        w = w.copy()
+        w[problem.clamp_dofs] = problem.clamp_values(v)
+        return w
+
+    def rate(self, problem, w, solver):
+        """``dw/dkappa``: the clamp rate, and ``K dw_f = -K_fc dw_c`` inside."""
+        dw = np.zeros(problem.ndof)
+        dw[problem.clamp_dofs] = problem.clamp_rate(self.kappa)
+        rhs = -(problem.clamp_coupling(w) @ dw[problem.clamp_dofs])
+        dw[problem.free] = solver.solve(rhs)
+        return dw
+
+
+def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
+            progress):
+    """Natural continuation in ``param`` with fold bisection (see :func:`follow_length`)."""
     t0 = time.perf_counter()
-    direction = 1.0 if stop >= sheet.length else -1.0
     stats = Stats()
     tight = NewtonOptions()
     track = _Stretched(sheet, hmax, layers, solver, symmetric)
     problem = track.at(sheet.length)
     out = follow_path(problem, path, sheet.curvature, track.solver, stats=stats)
     if not out.converged:
-        raise ParameterError(f"the starting sheet (length {sheet.length:g}) could not be solved "
-                             f"along {path}: {out.reason}")
+        raise ParameterError(f"the starting sheet (length {sheet.length:g}, a/R "
+                             f"{sheet.curvature:g}) could not be solved along {path}: {out.reason}")
     w = out.w
+    v = param.value(problem)
+    direction = 1.0 if stop >= v else -1.0
     st, k = stability(problem, track.solver)
-    d = tip_deflection(problem, w)
-    points = [BranchPoint(problem.length, d, st, k, stats.newton_iterations)]
-    dwdL = _length_tangent(problem, w, track.solver)
+    points = [BranchPoint(v, tip_deflection(problem, w), st, k, stats.newton_iterations)]
+    dwdv = param.rate(problem, w, track.solver)
     h = step
-    scale = max(1.0, sheet.length)
+    guard = 0.25 * max(1.0, sheet.length)
     fold, bracket, reason = None, (), ""
-    while direction * (stop - problem.length) > 1e-12:
-        L_try = problem.length + direction * min(h, abs(stop - problem.length))
-        if track.needs_remesh(L_try):
+    while direction * (stop - v) > 1e-12:
+        v_try = v + direction * min(h, abs(stop - v))
+        if isinstance(param, _LengthParameter) and track.needs_remesh(v_try):
             moved = track.remesh(problem, w, tight, stats, path)
             d_here = tip_deflection(*moved) if moved is not None else np.nan
             if not abs(d_here - points[-1].deflection) <= jump:
-                reason = (f"remeshing at L = {problem.length:.4g} failed" if moved is None else
-                          f"remeshing at L = {problem.length:.4g} landed on another branch "
+                reason = (f"remeshing at L = {v:.4g} failed" if moved is None else
+                          f"remeshing at L = {v:.4g} landed on another branch "
                           f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
                 break
             problem, w = moved
-            dwdL = _length_tangent(problem, w, track.solver)
-        trial = track.at(L_try)
-        w_pred = w + (L_try - problem.length) * dwdL
+            dwdv = param.rate(problem, w, track.solver)
+        trial = param.at(track, problem, v_try)
+        w_pred = param.apply(trial, w + (v_try - v) * dwdv, v_try)
         its0 = stats.newton_iterations
-        res = newton(trial, w_pred, 1.0, track.solver, tight, stats,
-                     max_first_increment=0.25 * scale)
+        res = newton(trial, w_pred, 1.0, track.solver, tight, stats, max_first_increment=guard)
         why = "" if res.converged else f"Newton: {res.reason}"
         if res.converged:
             st, k = stability(trial, track.solver)
@@ -298,18 +382,19 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
             elif abs(d_new - points[-1].deflection) > jump:
                 why = f"deflection jumped from {points[-1].deflection:.4g} to {d_new:.4g}"
         if not why:
-            problem, w = trial, res.w
-            points.append(BranchPoint(float(L_try), d_new, st, k, stats.newton_iterations - its0))
-            dwdL = _length_tangent(problem, w, track.solver)
+            problem, w, v = trial, res.w, v_try
+            points.append(BranchPoint(float(v), d_new, st, k, stats.newton_iterations - its0))
+            dwdv = param.rate(problem, w, track.solver)
             h = min(step, 1.5 * h)
             if progress is not None:
-                progress(problem.length)
+                progress(v)
             continue
-        if abs(L_try - problem.length) <= 2 * tol + 1e-12:
-            bracket = (problem.length, L_try)
-            fold, reason = 0.5 * (problem.length + L_try), why
+        param.at(track, problem, v)  # back to the last equilibrium
+        if abs(v_try - v) <= 2 * tol + 1e-12:
+            bracket = (v, v_try)
+            fold, reason = 0.5 * (v + v_try), why
             break
-        h = max(0.5 * abs(L_try - problem.length), tol)  # dwdL (a vector) is still valid
+        h = max(0.5 * abs(v_try - v), tol)  # dwdv (a vector) is still valid
     return Branch(tuple(points), fold, bracket, reason, stats.newton_iterations,
                   time.perf_counter() - t0)
 
@@ -621,6 +706,11 @@ def add_bistability_subparser(sub):
     p.add_argument("--solver", default="auto")
     p.add_argument("--step", type=float, default=0.1, help="largest length step (default 0.1)")
     p.add_argument("--tol", type=float, default=0.005, help="fold bracket half-width (default 0.005)")
+    p.add_argument("--at-length", type=float, default=None,
+                   help="instead: continuation in the curvature at this L/a, giving the "
+                        "critical curvatures a/R0* (pop-up) and a/R1* (fall)")
+    p.add_argument("--curvatures", default="0.5:5",
+                   help="with --at-length: range of a/R searched, low:high (default 0.5:5)")
     p.add_argument("--s-curve", action="store_true",
                    help="also trace the whole S-curve by pseudo-arclength continuation")
     p.add_argument("--json", default=None, help="write the result here")
@@ -643,6 +733,8 @@ def _cli(args):
         check_writable("--json", args.json, [".json"])
     Sheet(length=1.0, tip_width=args.tip_width, curvature=args.curvature,
           thickness=args.thickness, modulus=args.modulus)  # validates the parameters
+    if args.at_length is not None:
+        return _cli_curvature(args)
     lo, hi = _parse_range(args.lengths)
     r = fold_lengths(args.tip_width, args.curvature, lengths=(lo, hi), hmax=args.hmax,
                      layers=args.layers, solver=args.solver, step=args.step, tol=args.tol,
@@ -667,5 +759,45 @@ def _cli(args):
               + ", ".join(f"{x:.3f}" for x in sc.folds))
     if args.json:
         write_json(data, args.json)
+        print(f"  wrote {args.json}")
+    return 0
+
+
+def _cli_curvature(args):
+    from .io import write_json
+
+    try:
+        k_lo, k_hi = (float(x) for x in args.curvatures.split(":"))
+    except ValueError:
+        raise ParameterError(f"curvatures must be low:high, e.g. 0.5:5, got "
+                             f"{args.curvatures!r}") from None
+    if not 0 <= k_lo < k_hi:
+        raise ParameterError(f"curvatures must be low:high with 0 <= low < high, got "
+                             f"{args.curvatures!r}")
+    base = Sheet(length=args.at_length, tip_width=args.tip_width, curvature=k_lo,
+                 thickness=args.thickness, modulus=args.modulus)
+    kw = dict(hmax=args.hmax, layers=args.layers, solver=args.solver, tol=args.tol)
+    up = follow_curvature(base, k_hi, path="gravity-first", **kw)
+    down = follow_curvature(base.replace(curvature=k_hi), k_lo, path="curvature-first", **kw)
+    k0, k1 = up.fold, down.fold
+    bistable = bool(k0 is not None and k1 is not None and k1 < k0)
+
+    def fmt(x):
+        return "none in range" if x is None else f"{x:.3f} +- {args.tol:g}"
+
+    print(f"L/a = {args.at_length:g}, b/a = {args.tip_width:g}, hmax = {args.hmax:g}:")
+    print(f"  pop-up curvature a/R0* = {fmt(k0)}  ({up.reason or 'held'})")
+    print(f"  fall curvature   a/R1* = {fmt(k1)}  ({down.reason or 'held'})")
+    print(f"  bistable for a/R1* < a/R < a/R0*: {'yes' if bistable else 'no'}")
+    if args.json:
+        def branch(b):
+            return {"curvatures": b.lengths.tolist(), "deflection": b.deflections.tolist(),
+                    "stable": [p.stable for p in b.points], "fold": b.fold,
+                    "bracket": list(b.bracket), "reason": b.reason}
+
+        write_json({"length": args.at_length, "tip_width": args.tip_width,
+                    "popup_curvature": k0, "fall_curvature": k1, "bistable": bistable,
+                    "gravity_dominated": branch(up), "curvature_dominated": branch(down)},
+                   args.json)
         print(f"  wrote {args.json}")
     return 0

@@ -91,3 +91,18 @@ def test_bad_cli_input_is_one_line(argv, name, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and name in err
+
+
+def test_curvature_continuation_brackets_both_critical_curvatures():
+    from skfem_sheet.bistability import follow_curvature
+
+    # rectangle, L/a = 1.3 (bistable at a/R = 2.5): the drooped state pops up
+    # above a/R0*, the aloft one falls below a/R1*, with a/R1* < 2.5 < a/R0*
+    up = follow_curvature(Sheet(length=1.3, curvature=1.0), 5.0, path="gravity-first",
+                          hmax=0.2, step=0.5)
+    down = follow_curvature(Sheet(length=1.3, curvature=5.0), 1.0, path="curvature-first",
+                            hmax=0.2, step=0.5)
+    assert up.fold is not None and down.fold is not None
+    assert down.fold < 2.5 < up.fold
+    assert abs(up.bracket[1] - up.bracket[0]) <= 0.01 + 1e-12
+    assert np.all(np.diff(up.deflections) < 0)  # curvature lifts the drooped sheet
