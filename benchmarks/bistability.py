@@ -42,6 +42,12 @@ def _save(path, data):
         os.replace(tmp, path)
 
 
+def _bistable(s, tol=0.005):
+    """Both folds found and their brackets disjoint (L1* - L0* > 2 tol)."""
+    L0, L1 = s["popup_length"], s["standout_length"]
+    return bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol)
+
+
 def _fmt(x):
     return "   none" if x is None else f"{x:7.3f}"
 
@@ -76,14 +82,15 @@ def main(argv=None):
         s = run(b, k)
         its = (s["curvature_dominated"]["newton_iterations"]
                + s["gravity_dominated"]["newton_iterations"])
-        print(f"{name:12s} {k:5.2g} {_fmt(s['popup_length']):>13s} {_fmt(s['standout_length']):>15s} "
-              f"{str(s['bistable']):>8s} {its:7d} {s['wall_time_s']:7.0f}", flush=True)
+        L0, L1 = s["popup_length"], s["standout_length"]
+        print(f"{name:12s} {k:5.2g} {_fmt(L0):>13s} {_fmt(L1):>15s} "
+              f"{str(_bistable(s)):>8s} {its:7d} {s['wall_time_s']:7.0f}", flush=True)
     rect = folds["b=1,k=2.5"]
-    inside = (rect["bistable"] and rect["popup_length"] < 1.3 < rect["standout_length"])
+    inside = (_bistable(rect) and rect["popup_length"] < 1.3 < rect["standout_length"])
     print(f"rectangle a/R = 2.5: L0* < 1.3 < L1*: {inside}")
 
     # the S-curve
-    if "s_curve" not in data and rect["bistable"]:
+    if "s_curve" not in data and _bistable(rect):
         L0, L1 = rect["popup_length"], rect["standout_length"]
         t = time.perf_counter()
         sc = s_curve(Sheet(length=max(lo, L0 - 0.15), curvature=2.5), min(hi, L1 + 0.15),
@@ -107,15 +114,15 @@ def main(argv=None):
     # critical shape factor
     if not args.skip_critical:
         b_no, b_yes = 0.5, 1.0
-        if folds["b=0.5,k=2.5"]["bistable"] or not rect["bistable"]:
+        if _bistable(folds["b=0.5,k=2.5"]) or not _bistable(rect):
             print("critical shape factor: b/a = 0.5 and 1 do not bracket it")
         else:
             for _ in range(args.critical_steps):
                 b = round(0.5 * (b_no + b_yes), 4)
                 s = run(b, 2.5)
                 print(f"  b/a = {b:.4f}: L0* = {_fmt(s['popup_length'])}, L1* = "
-                      f"{_fmt(s['standout_length'])}, bistable {s['bistable']}", flush=True)
-                if s["bistable"]:
+                      f"{_fmt(s['standout_length'])}, bistable {_bistable(s)}", flush=True)
+                if _bistable(s):
                     b_yes = b
                 else:
                     b_no = b

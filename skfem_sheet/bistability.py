@@ -412,7 +412,10 @@ class Bistability:
         ``L1*``: above it the curvature-dominated branch does not exist (None
         if it held up to the upper end).
     bistable : bool
-        Both folds found with ``L0* < L1*``.
+        Both folds found with ``L0* < L1*`` and their brackets disjoint
+        (``L1* - L0* > 2 tol``): a bistable range narrower than the fold
+        resolution is not claimed (near the cusp where it closes, e.g. the
+        rectangle at a/R = 1).
     increasing, decreasing : Branch
         The two continuations (curvature-first from the short end,
         gravity-first from the long end).
@@ -440,8 +443,10 @@ class Bistability:
                     "bracket": list(b.bracket), "reason": b.reason,
                     "newton_iterations": b.newton_iterations, "wall_time_s": b.wall_time_s}
 
+        width = (self.standout_length - self.popup_length
+                 if self.popup_length is not None and self.standout_length is not None else None)
         return {"popup_length": self.popup_length, "standout_length": self.standout_length,
-                "bistable": self.bistable, "tip_width": self.tip_width,
+                "bistable": self.bistable, "bistable_width": width, "tip_width": self.tip_width,
                 "curvature": self.curvature, "hmax": self.hmax, "tol": self.tol,
                 "length_range": list(self.length_range),
                 "curvature_dominated": branch(self.increasing),
@@ -483,8 +488,8 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
             b.close()
     L1, L0 = up.fold, down.fold
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
-                       bool(L0 is not None and L1 is not None and L0 < L1), up, down, tol,
-                       time.perf_counter() - t0)
+                       bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
+                       tol, time.perf_counter() - t0)
 
 
 class _Bar:
