@@ -290,7 +290,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                     # a snap only if the sheet really left its branch; the
                     # damped iteration may also settle just short of the fold
                     nu = problem.nu_dof
-                    if np.abs(res.w[:nu] - w[:nu]).max() > scale * step_options.max_correction:
+                    # (a load step below snap_step moves nodes by a few 1e-2 at most)
+                    if np.abs(res.w[:nu] - w[:nu]).max() > 0.1 * scale:
                         out.snaps.append((name, lam_new, k_new, g_new))
                     snapping = False
                 prev = (lam, w)

@@ -66,7 +66,8 @@ class Result:
     branch : str
         ``"curvature-dominated"`` or ``"gravity-dominated"``: the branch the
         load path selects (curvature-first: curvature-dominated), switched if
-        the path snapped.  Outside the bistable range both paths reach the same
+        the path snapped (a jump of more than 0.1 max(1, L) in a step below
+        ``StepOptions.snap_step``).  Outside the bistable range both paths reach the same
         state, whatever its name.
     stable : bool or None
         Whether the equilibrium is stable: the constrained Hessian (the tangent
@@ -288,4 +289,6 @@ def _branch(path, snaps):
     own, other = "curvature-dominated", "gravity-dominated"
     if path == "gravity-first":
         own, other = other, own
-    return other if len(snaps) % 2 else own
+    # a path changes branch at most once (the followed branch ends at a fold
+    # and the sheet snaps to the other); several recorded snaps are stages of it
+    return other if len(snaps) else own
