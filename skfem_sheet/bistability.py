@@ -634,7 +634,7 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
             rn = float(np.linalg.norm(r[free]))
             K = prob.tangent(wk)
             try:
-                track.solver.factorize(K)
+                track.solver.factorize(K, state=wk)
             except LinearSolverError:
                 break
             stats.factorizations += 1

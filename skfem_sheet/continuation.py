@@ -260,7 +260,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             if not have_factor:
                 K = problem.tangent(w)
                 try:
-                    solver.factorize(K)
+                    solver.factorize(K, state=w)
                 except LinearSolverError as err:
                     out.reason = f"singular tangent at the start of the {name} phase ({err})"
                     return out

@@ -159,7 +159,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
             return NewtonResult(w, False, it, "NaN in the residual", history, first, corrections)
         K = _timed(stats, "assembly_s", problem.tangent, w)
         try:
-            _timed(stats, "linear_solve_s", solver.factorize, K)
+            _timed(stats, "linear_solve_s", solver.factorize, K, w)
             delta = back_solve(-r[free])
         except LinearSolverError as err:
             return NewtonResult(w, False, it, f"singular tangent ({err})", history, first, corrections)
@@ -227,7 +227,7 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
         K = _timed(stats, "assembly_s", problem.tangent, w)
         A = sp.csr_matrix((K.data + sigma * M, K.indices, K.indptr), shape=K.shape)
         try:
-            _timed(stats, "linear_solve_s", solver.factorize, A)
+            _timed(stats, "linear_solve_s", solver.factorize, A, w)
             delta = _timed(stats, "linear_solve_s", solver.solve, -r[free])
         except LinearSolverError:
             sigma *= 10.0  # singular: more damping

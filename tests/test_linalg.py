@@ -1,0 +1,224 @@
+"""Linear-solver back-ends: agreement, the pyamg Krylov solver, inertia."""
+import numpy as np
+import pytest
+import scipy.linalg as sl
+import scipy.sparse as sp
+
+from skfem_sheet import Sheet, solve
+from skfem_sheet.linalg import (LinearSolverError, PyAMGSolver, available_solvers,
+                                make_linear_solver, near_null_space)
+from skfem_sheet.params import ParameterError
+from skfem_sheet.solve import _problem
+
+BACKENDS = [s for s in ("pardiso", "superlu", "pyamg") if s in available_solvers()]
+DIRECT = [s for s in ("pardiso", "superlu") if s in available_solvers()]
+
+
+def _reference_problem(half=False):
+    return _problem(Sheet(length=0.5), 0.15, None, 2, half)
+
+
+def _make(name, problem, **options):
+    s = make_linear_solver(name, **options)
+    s.attach(problem)
+    return s
+
+
+@pytest.fixture(scope="module", params=[False, True], ids=["full", "half"])
+def tangent(request):
+    """Coarse sheet: the reduced tangent at the reference state and the weight."""
+    p = _reference_problem(request.param)
+    return p, p.tangent(np.zeros(p.ndof)), -p.gravity_load[p.free]
+
+
+def saddle_point(n, m, k, seed=0):
+    """``[[A, B^T], [B, 0]]`` with full-rank B (m x n) whose A has exactly k
+    negative eigenvalues on ker B: inertia ``(n - k, m + k, 0)`` (the inertia
+    of ``Z^T A Z`` plus ``(m, m, 0)``).  The zero block's diagonal is stored
+    explicitly, as in the sheet tangent."""
+    rng = np.random.default_rng(seed)
+    B = rng.standard_normal((m, n))
+    Z, Y = sl.null_space(B), sl.orth(B.T)
+    d = rng.uniform(0.5, 2.0, n - m)
+    d[:k] *= -1
+    C = rng.standard_normal((m, m))
+    E = rng.standard_normal((n - m, m))
+    A = Z @ np.diag(d) @ Z.T + Y @ (C @ C.T) @ Y.T + Z @ E @ Y.T + Y @ E.T @ Z.T
+    K = sp.coo_matrix(np.block([[A, B.T], [B, np.zeros((m, m))]]))
+    diag = np.arange(n, n + m)
+    return sp.csr_matrix((np.r_[K.data, np.zeros(m)], (np.r_[K.row, diag], np.r_[K.col, diag])),
+                         shape=K.shape)
+
+
+# ---------------------------------------------------------------------------
+# interface
+# ---------------------------------------------------------------------------
+def test_bad_solver_name_names_the_parameter():
+    with pytest.raises(ParameterError, match=r"^solver must be one of .*pyamg.*'mumps'"):
+        make_linear_solver("mumps")
+    with pytest.raises(ParameterError, match="^solver"):
+        solve(Sheet(length=0.5), hmax=0.15, solver="mumps")
+
+
+def test_pyamg_needs_attach():
+    p = _reference_problem()
+    with pytest.raises(RuntimeError, match="attach"):
+        make_linear_solver("pyamg").factorize(p.tangent(np.zeros(p.ndof)))
+
+
+# ---------------------------------------------------------------------------
+# agreement on a sheet tangent
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("name", BACKENDS)
+def test_backends_agree_on_a_sheet_tangent(tangent, name):
+    p, K, b = tangent
+    ref = _make(DIRECT[0], p)
+    ref.factorize(K)
+    x_ref = ref.solve(b)
+    s = _make(name, p, **({"rtol": 1e-8} if name == "pyamg" else {}))
+    s.factorize(K, state=np.zeros(p.ndof))
+    x = s.solve(b)
+    assert np.linalg.norm(K @ x - b) <= 1e-8 * np.linalg.norm(b)
+    assert np.linalg.norm(x - x_ref) <= 1e-8 * np.linalg.norm(x_ref)
+    X = s.solve(np.column_stack([b, 2 * b]))  # several right-hand sides
+    assert np.linalg.norm(X[:, 1] - 2 * x) <= 1e-8 * np.linalg.norm(x)
+
+
+def test_pyamg_reaches_its_tolerance_in_few_iterations(tangent):
+    p, K, b = tangent
+    s = _make("pyamg", p, rtol=1e-6)
+    s.factorize(K)
+    rng = np.random.default_rng(1)
+    for rhs in (b, rng.standard_normal(len(b))):
+        x = s.solve(rhs)
+        assert np.linalg.norm(K @ x - rhs) <= 1e-6 * np.linalg.norm(rhs)
+        assert s.residuals[-1] <= 1e-6
+    # about 35 on average at hmax 0.15 to 0.08 on the Newton systems of a solve
+    assert len(s.iterations) == 2 and max(s.iterations) <= 60
+
+
+def test_pyamg_reports_failure_instead_of_garbage(tangent):
+    p, K, b = tangent
+    s = _make("pyamg", p, rtol=1e-6, maxiter=3)
+    s.factorize(K)
+    with pytest.raises(LinearSolverError, match=r"relative residual of .* in 3 iterations"):
+        s.solve(b)
+
+
+def test_pyamg_reuses_the_hierarchy_and_rebuilds_a_stale_one(tangent):
+    p, K, b = tangent
+    s = _make("pyamg", p)
+    s.factorize(K)
+    s.solve(b)
+    K2 = sp.csr_matrix((1.001 * K.data, K.indices, K.indptr), shape=K.shape)
+    s.factorize(K2)
+    x = s.solve(b)
+    assert (s.n_setups, s.n_refreshes) == (1, 1)
+    assert np.linalg.norm(K2 @ x - b) <= 1e-6 * np.linalg.norm(b)
+    s._fresh_iterations = 0  # pretend the last solve took far more than after the setup
+    s.solve(b)
+    s.factorize(K2)
+    assert s.n_setups == 2
+    fresh = _make("pyamg", p, reuse=False)
+    fresh.factorize(K)
+    fresh.factorize(K2)
+    assert (fresh.n_setups, fresh.n_refreshes) == (2, 0)
+
+
+def test_near_null_space_is_the_kernel_of_the_unclamped_reference_tangent():
+    # rigid motions of the reference sheet cost nothing: K_uu (no clamp) B = 0
+    p = _reference_problem()
+    Ke = p.element_matrices(np.zeros(p.ndof))[:, :30, :30]
+    ed = p.edofs[:, :30]
+    Kuu = sp.csr_matrix((Ke.ravel(), (np.repeat(ed, 30, axis=1).ravel(),
+                                      np.tile(ed, (1, 30)).ravel())), shape=(p.nu_dof,) * 2)
+    B = near_null_space(p.nodes)
+    scale = abs(Kuu).sum(axis=1).max() * np.abs(B).max(axis=0)
+    assert np.all(np.abs(Kuu @ B[:, :6]).max(axis=0) <= 1e-10 * scale[:6])
+    # the bending modes are soft, not free: energy h^2-small against membrane
+    energy = np.einsum("ij,ij->j", B, Kuu @ B) / np.einsum("ij,ij->j", B, B)
+    membrane = B[:, 6].copy()
+    membrane[2::3] = 0.0  # in-plane part only: u = -x z alone stretches the sheet
+    e_mem = membrane @ (Kuu @ membrane) / (membrane @ membrane)
+    assert 0 < energy[6] < 1e-2 * e_mem
+
+
+def test_near_null_space_follows_the_deformation():
+    # a rigidly rotated sheet: the rotated modes are those of the rotated body
+    X = np.random.default_rng(0).uniform(-1, 1, (20, 3))
+    c, s_ = np.cos(0.7), np.sin(0.7)
+    Q = np.array([[c, 0, s_], [0, 1, 0], [-s_, 0, c]])
+    x = X @ Q.T
+    B = near_null_space(X, x=x, R=np.broadcast_to(Q, (20, 3, 3)))
+    B_rot = near_null_space(x - x.mean(0) + X.mean(0), bending=False)
+    assert np.allclose(B[:, :6], B_rot)
+    m = near_null_space(X)[:, 6:].reshape(20, 3, 3)
+    assert np.allclose(B[:, 6:].reshape(20, 3, 3), np.einsum("ij,njm->nim", Q, m))
+
+
+# ---------------------------------------------------------------------------
+# full solves
+# ---------------------------------------------------------------------------
+def test_full_solve_with_pyamg_matches_the_direct_solver():
+    sheet = Sheet(length=0.5, curvature=1.0)
+    direct = solve(sheet, hmax=0.15, solver=DIRECT[0])
+    amg = solve(sheet, hmax=0.15, solver="pyamg")
+    assert amg.solver == "pyamg" and amg.converged
+    assert abs(amg.deflection - direct.deflection) <= 1e-7 * abs(direct.deflection)
+    assert amg.newton_iterations == direct.newton_iterations
+
+
+# ---------------------------------------------------------------------------
+# inertia
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("name", DIRECT)
+@pytest.mark.parametrize("k", [0, 1, 4])
+def test_inertia_of_a_saddle_point_matrix(name, k):
+    K = saddle_point(30, 8, k, seed=k)
+    s = make_linear_solver(name)
+    s.factorize(K)
+    assert s.inertia() == (30 - k, 8 + k, 0)
+    b = np.arange(38.0)
+    assert np.linalg.norm(K @ s.solve(b) - b) <= 1e-10 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("name", DIRECT)
+def test_inertia_of_the_reference_tangent_is_stable(tangent, name):
+    # unloaded sheet: positive definite on ker B, so exactly one negative
+    # eigenvalue per free pressure dof
+    p, K, _ = tangent
+    s = make_linear_solver(name)
+    s.factorize(K)
+    n_p = int(np.count_nonzero(p.free >= p.nu_dof))
+    assert s.inertia() == (K.shape[0] - n_p, n_p, 0)
+
+
+@pytest.mark.parametrize("name", DIRECT)
+@pytest.mark.parametrize("sigma", [10.0, 100.0, 1e4])
+def test_inertia_sees_an_unstable_tangent(name, sigma):
+    # K - sigma M (M: displacement mass) turns indefinite on ker B once sigma
+    # passes the lowest bending eigenvalues; checked against dense eigenvalues
+    p = _reference_problem(half=True)
+    K = p.tangent(np.zeros(p.ndof))
+    M = sp.csr_matrix((p.mass_data, K.indices, K.indptr), shape=K.shape)
+    Ks = sp.csr_matrix(K - sigma * M)
+    ev = np.linalg.eigvalsh(Ks.toarray())
+    s = make_linear_solver(name)
+    s.factorize(Ks)
+    assert s.inertia() == (int(np.sum(ev > 0)), int(np.sum(ev < 0)), 0)
+    n_p = int(np.count_nonzero(p.free >= p.nu_dof))
+    assert (s.inertia()[1] > n_p) == (sigma > 10.0)
+
+
+def test_pyamg_has_no_inertia(tangent):
+    p, K, _ = tangent
+    s = _make("pyamg", p)
+    s.factorize(K)
+    assert s.inertia() is None
+
+
+def test_pyamg_pads_nodes_with_fewer_free_components():
+    # the half model fixes U_y on y = 0: those nodes have 2 free components
+    s = PyAMGSolver()
+    s.attach(_reference_problem(half=True))
+    assert s._pad is not None and s._npad > s._nu
