@@ -420,7 +420,8 @@ def _build_pattern(self):
     first = np.concatenate([[0], np.cumsum(nfree_block)[:-1]])
     rank[self.free] = np.arange(nf) - first[fb]
     # unique block pairs over the elements
-    eblocks = np.hstack([self.element_nodes, nn + self.element_vertices])  # (nel, 14)
+    # int64: the pair keys A * nb + B overflow int32 beyond 46k blocks
+    eblocks = np.hstack([self.element_nodes, nn + self.element_vertices]).astype(np.int64)
     nbe = eblocks.shape[1]
     A = np.repeat(eblocks, nbe, axis=1).ravel()
     B = np.tile(eblocks, (1, nbe)).ravel()

@@ -174,3 +174,15 @@ def test_stretched_problem_equals_a_fresh_mesh_of_that_length():
     back = p1.with_length(1.0)
     np.testing.assert_allclose(back.dphi, p0.dphi)
     np.testing.assert_allclose(back.gravity_load, p0.gravity_load)
+
+
+@pytest.mark.slow
+def test_pattern_of_a_large_mesh():
+    """More than 46341 blocks: the block-pair keys need 64-bit integers
+    (skfem's element dofs are int32; this crashed at hmax 0.03 with 8 layers)."""
+    from skfem_sheet.solve import _problem
+
+    p = _problem(Sheet(length=1.8, curvature=5.0), 0.03, 8, 2, True)
+    assert p.n_nodes + p.n_vertices > 46341
+    K = p.tangent(np.zeros(p.ndof))
+    assert K.shape == (p.n_free, p.n_free) and K.has_sorted_indices
