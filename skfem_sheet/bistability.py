@@ -65,8 +65,25 @@ class BranchPoint:
     newton_iterations: int = 0
 
 
+class _Curve:
+    """Arrays over the ``points`` (BranchPoint) of a continuation result."""
+
+    @property
+    def lengths(self):
+        """Parameter values (lengths; curvatures for :func:`follow_curvature`)."""
+        return np.array([p.length for p in self.points])
+
+    @property
+    def deflections(self):
+        return np.array([p.deflection for p in self.points])
+
+    @property
+    def stable(self):
+        return [p.stable for p in self.points]
+
+
 @dataclass(frozen=True)
-class Branch:
+class Branch(_Curve):
     """Result of :func:`follow_length`.
 
     Attributes
@@ -88,14 +105,6 @@ class Branch:
     reason: str = ""
     newton_iterations: int = 0
     wall_time_s: float = 0.0
-
-    @property
-    def lengths(self):
-        return np.array([p.length for p in self.points])
-
-    @property
-    def deflections(self):
-        return np.array([p.deflection for p in self.points])
 
 
 # ----------------------------------------------------------------------------
@@ -439,7 +448,7 @@ class Bistability:
 
         def branch(b):
             return {"lengths": b.lengths.tolist(), "deflection": b.deflections.tolist(),
-                    "stable": [p.stable for p in b.points], "fold": b.fold,
+                    "stable": b.stable, "fold": b.fold,
                     "bracket": list(b.bracket), "reason": b.reason,
                     "newton_iterations": b.newton_iterations, "wall_time_s": b.wall_time_s}
 
@@ -518,7 +527,7 @@ def _bars(progress, lo, hi):
 # pseudo-arclength continuation: the whole S-curve
 # ----------------------------------------------------------------------------
 @dataclass(frozen=True)
-class SCurve:
+class SCurve(_Curve):
     """The curve of equilibria d(L) traced by pseudo-arclength continuation.
 
     Attributes
@@ -536,17 +545,9 @@ class SCurve:
     newton_iterations: int = 0
     wall_time_s: float = 0.0
 
-    @property
-    def lengths(self):
-        return np.array([p.length for p in self.points])
-
-    @property
-    def deflections(self):
-        return np.array([p.deflection for p in self.points])
-
     def summary(self) -> dict:
         return {"lengths": self.lengths.tolist(), "deflection": self.deflections.tolist(),
-                "stable": [p.stable for p in self.points], "folds": list(self.folds),
+                "stable": self.stable, "folds": list(self.folds),
                 "converged": self.converged, "message": self.message,
                 "newton_iterations": self.newton_iterations, "wall_time_s": self.wall_time_s}
 
@@ -797,7 +798,7 @@ def _cli_curvature(args):
     if args.json:
         def branch(b):
             return {"curvatures": b.lengths.tolist(), "deflection": b.deflections.tolist(),
-                    "stable": [p.stable for p in b.points], "fold": b.fold,
+                    "stable": b.stable, "fold": b.fold,
                     "bracket": list(b.bracket), "reason": b.reason}
 
         write_json({"length": args.at_length, "tip_width": args.tip_width,
