@@ -272,10 +272,12 @@ class SheetProblem:
         Its sparsity pattern is fixed for the problem's lifetime, and the zero
         diagonal entries of the pressure block are stored explicitly.
         """
-        if getattr(self, "_buffers", None) is None:
+        # work arrays shared by all problems on this mesh (stretched copies too);
+        # problems are used one at a time within a process
+        if "tangent" not in self._workspace:
             nel = len(self.dx)
-            self._buffers = (np.empty((nel, 34, 34)), np.empty((nel, 30, 30)))
-        Kb, Yb = self._buffers
+            self._workspace["tangent"] = (np.empty((nel, 34, 34)), np.empty((nel, 30, 30)))
+        Kb, Yb = self._workspace["tangent"]
         Ke = self.element_matrices(w, out=Kb, work=Yb).ravel()
         data = self._scatter_ff @ Ke
         nf = self.n_free
@@ -378,6 +380,7 @@ def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
         Mv[:, :, i, :, i] = mass
     self.mass_data = self._scatter_ff @ Me.ravel()
     self.volume0 = float(w.sum())
+    self._workspace = {}  # reused work arrays (see SheetProblem.tangent)
 
     return vars(self)
 
