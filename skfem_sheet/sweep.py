@@ -838,24 +838,9 @@ def parse_values(text, name, kind=float) -> list:
     if ":" in text:
         if kind is not float:
             raise ParameterError(f"{name} must be a comma list, got {text!r}")
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise ParameterError(f"{name} must be 'start:stop:step' or 'x,y,...', got {text!r}")
-        try:
-            a, b, step = (float(x) for x in parts)
-        except ValueError:
-            raise ParameterError(f"{name} must be 'start:stop:step' with numbers, "
-                                 f"got {text!r}") from None
-        if not all(math.isfinite(v) for v in (a, b, step)):
-            raise ParameterError(f"{name} values must be finite, got {text!r}")
-        if step <= 0:
-            raise ParameterError(f"{name} step must be in (0, inf), got {step!r}")
-        if b < a:
-            raise ParameterError(f"{name} stop must be >= start, got {text!r}")
-        n = math.floor((b - a) / step + 1e-6) + 1
-        if n > _MAX_POINTS:
-            raise ParameterError(f"{name} must have at most {_MAX_POINTS} values, got {n}")
-        return [_norm_number(a + i * step) for i in range(n)]
+        from .reduced.cli import parse_range
+
+        return [_norm_number(v) for v in parse_range(text, name, _MAX_POINTS, slack=1e-6)]
     items = [t.strip() for t in text.split(",")]
     if not text or any(not t for t in items):
         raise ParameterError(f"{name} must be 'start:stop:step' or 'x,y,...', got {text!r}")

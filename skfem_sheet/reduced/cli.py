@@ -34,10 +34,13 @@ __all__ = ["add_rom_subparser", "parse_range"]
 _MAX_POINTS = 10000
 
 
-def parse_range(text, name: str = "--lengths"):
-    """Parse ``"a:b:step"`` into the values a, a + step, ..., <= b (b included).
+def parse_range(text, name: str = "--lengths", max_points: int = _MAX_POINTS,
+                slack: float = 1e-9):
+    """Parse ``"a:b:step"`` into the values a, a + step, ..., <= b (b included
+    within ``slack * step``).
 
-    Raises ``ValueError`` naming ``name`` on malformed input.
+    Raises ``ValueError`` naming ``name`` on malformed input or more than
+    ``max_points`` values.
 
     Examples
     --------
@@ -57,9 +60,9 @@ def parse_range(text, name: str = "--lengths"):
         raise ParameterError(f"{name} step must be in (0, inf), got {step!r}")
     if b < a:
         raise ParameterError(f"{name} stop must be >= start, got {text!r}")
-    n = int(math.floor((b - a) / step + 1e-9)) + 1
-    if n > _MAX_POINTS:
-        raise ParameterError(f"{name} must have at most {_MAX_POINTS} points, got {n}")
+    n = int(math.floor((b - a) / step + slack)) + 1
+    if n > max_points:
+        raise ParameterError(f"{name} must have at most {max_points} points, got {n}")
     return np.round(a + step * np.arange(n), 12)
 
 
