@@ -724,11 +724,11 @@ def add_bistability_subparser(sub):
     p.set_defaults(func=_cli)
 
 
-def _parse_range(text):
+def _parse_range(text, name="lengths", form="short:long", example="0.6:2.4"):
     try:
         lo, hi = (float(x) for x in text.split(":"))
     except ValueError:
-        raise ParameterError(f"lengths must be short:long, e.g. 0.6:2.4, got {text!r}") from None
+        raise ParameterError(f"{name} must be {form}, e.g. {example}, got {text!r}") from None
     return lo, hi
 
 
@@ -772,11 +772,7 @@ def _cli(args):
 def _cli_curvature(args):
     from .io import write_json
 
-    try:
-        k_lo, k_hi = (float(x) for x in args.curvatures.split(":"))
-    except ValueError:
-        raise ParameterError(f"curvatures must be low:high, e.g. 0.5:5, got "
-                             f"{args.curvatures!r}") from None
+    k_lo, k_hi = _parse_range(args.curvatures, "curvatures", "low:high", "0.5:5")
     if not 0 <= k_lo < k_hi:
         raise ParameterError(f"curvatures must be low:high with 0 <= low < high, got "
                              f"{args.curvatures!r}")
