@@ -97,6 +97,10 @@ class Branch(_Curve):
         ``(last length on the branch, first length where it was not found)``.
     reason : str
         Why the branch was declared lost at the bracket's end.
+    start_snapped : bool
+        The starting solve (along its load path) snapped to the other
+        branch: the branch the path selects does not exist at the start
+        length, and the points are on the other one.
     """
 
     points: tuple
@@ -105,6 +109,7 @@ class Branch(_Curve):
     reason: str = ""
     newton_iterations: int = 0
     wall_time_s: float = 0.0
+    start_snapped: bool = False
 
 
 # ----------------------------------------------------------------------------
@@ -405,7 +410,7 @@ def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, 
             break
         h = max(0.5 * abs(v_try - v), tol)  # dwdv (a vector) is still valid
     return Branch(tuple(points), fold, bracket, reason, stats.newton_iterations,
-                  time.perf_counter() - t0)
+                  time.perf_counter() - t0, start_snapped=len(out.snaps) > 0)
 
 
 @dataclass(frozen=True)
@@ -427,7 +432,9 @@ class Bistability:
         rectangle at a/R = 1).
     increasing, decreasing : Branch
         The two continuations (curvature-first from the short end,
-        gravity-first from the long end).
+        gravity-first from the long end; at a/R = 0 one and the same).
+        ``start_snapped`` on either means its branch does not exist at the
+        end of the range it started from (widen ``lengths``).
     """
 
     tip_width: float
@@ -490,12 +497,19 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     bars = _bars(progress, lo, hi)
     up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
                        solver=solver, step=step, tol=tol, progress=bars[0])
-    down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
-                         layers=layers, solver=solver, step=step, tol=tol, progress=bars[1])
+    if base.curvature == 0.0:
+        down = up  # a flat clamp: both load paths are one problem, with one branch
+    else:
+        down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
+                             layers=layers, solver=solver, step=step, tol=tol,
+                             progress=bars[1])
     for b in bars:
         if b is not None:
             b.close()
     L1, L0 = up.fold, down.fold
+    if up.start_snapped or down.start_snapped:  # a branch missing at its start: no fold of it
+        L1 = None if up.start_snapped else L1
+        L0 = None if down.start_snapped else L0
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
                        bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
                        tol, time.perf_counter() - t0)

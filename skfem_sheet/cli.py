@@ -74,7 +74,7 @@ def build_parser():
 
 #: Commands defined in their own modules: (module, function adding the subparser).
 _SUBCOMMANDS = (("reduced.cli", "add_rom_subparser"), ("sweep", "add_sweep_subparser"),
-                ("bistability", "add_bistability_subparser"),
+                ("bistability", "add_bistability_subparser"), ("foldmap", "add_fold_map_subparser"),
                 ("figures", "add_figure_subparser"))
 
 

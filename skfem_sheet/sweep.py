@@ -340,13 +340,18 @@ def journal_path(table) -> str:
     return os.fspath(table) + ".journal.jsonl"
 
 
-def read_journal(path) -> dict:
+def _sweep_key(rec):
+    return point_key({k: rec[k] for k in PARAMETERS if k in rec})
+
+
+def read_journal(path, *, key_of=None, required=("length", "deflection", "converged")) -> dict:
     """Finished points of a journal, ``{key: record}`` in order of first appearance.
 
     Lines that are not complete JSON records (a write cut short by a crash,
     garbage) are skipped; for lines with the same key the last one wins.  Keys
-    are recomputed from the parameters stored in each line.  A missing file is
-    an empty journal.
+    are recomputed from the parameters stored in each line (``key_of(record)``,
+    by default :func:`point_key` of the sweep parameters); lines without the
+    ``required`` fields are skipped.  A missing file is an empty journal.
 
     Examples
     --------
@@ -371,10 +376,10 @@ def read_journal(path) -> dict:
             rec = json.loads(line)
         except (UnicodeDecodeError, json.JSONDecodeError):
             continue  # a line cut short by a crash, or garbage
-        if not isinstance(rec, dict) or not {"length", "deflection", "converged"} <= set(rec):
+        if not isinstance(rec, dict) or not set(required) <= set(rec):
             continue
         try:
-            key = point_key({k: rec[k] for k in PARAMETERS if k in rec})
+            key = (key_of or _sweep_key)(rec)
         except ParameterError:
             continue
         rec["key"] = key
@@ -497,12 +502,6 @@ def _chunks(points, n_workers, chunk_size=None):
     return out
 
 
-def _in_process(chunks):
-    for chunk in chunks:
-        for p in chunk:
-            yield [_run_point(p)]
-
-
 def _failed(point, message, error):
     """The record of a point whose task failed outside the solve (e.g. its worker died)."""
     rec = _record(point, point_key(point))
@@ -543,20 +542,22 @@ def _stop_pool(ex, kill):
         ex.shutdown(wait=True)
 
 
-def _pool(chunks, n_workers, task=None):
+def _pool(chunks, n_workers, task=None, failed=None):
     """Chunks on ``n_workers`` spawned processes; yields lists of records.
 
     At most ``n_workers`` chunks are in flight.  If a worker process dies (the
     pool breaks), the points of the chunks in flight are solved again one at a
     time in a fresh single-process pool, so that only a point that kills its
     worker on its own is recorded as failed.  ``task`` replaces
-    :func:`_run_chunk` (tests).
+    :func:`_run_chunk` (other kinds of points; tests), ``failed`` replaces
+    :func:`_failed`.
     """
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     task = task or _run_chunk
+    failed = failed or _failed
     ctx = multiprocessing.get_context("spawn")
 
     def new_pool(n):
@@ -597,12 +598,12 @@ def _pool(chunks, n_workers, task=None):
                         elif isinstance(err, BrokenProcessPool):
                             suspects.extend(chunk)
                         else:  # not from a solve (those are caught): e.g. pickling
-                            yield [_failed(p, f"the worker failed: {type(err).__name__}: {err}",
-                                           type(err).__name__) for p in chunk]
+                            yield [failed(p, f"the worker failed: {type(err).__name__}: {err}",
+                                          type(err).__name__) for p in chunk]
                 if broken:
                     _stop_pool(ex, kill=True)
                     ex = None
-                    yield from _isolated(suspects, new_pool, task)
+                    yield from _isolated(suspects, new_pool, task, failed)
                     ex = new_pool(n_workers)
         except BaseException:
             if ex is not None:
@@ -618,7 +619,7 @@ def _ping():
     return os.getpid()
 
 
-def _isolated(points, new_pool, task):
+def _isolated(points, new_pool, task, failed=None):
     """Solve points one at a time, each in a fresh worker if the previous one died."""
     from concurrent.futures.process import BrokenProcessPool
 
@@ -635,8 +636,8 @@ def _isolated(points, new_pool, task):
             try:
                 yield ex.submit(task, [p]).result()
             except BrokenProcessPool:
-                yield [_failed(p, "the worker process died while solving this point (killed, "
-                                  "out of memory or crashed)", "WorkerDied")]
+                yield [(failed or _failed)(p, "the worker process died while solving this point "
+                                              "(killed, out of memory or crashed)", "WorkerDied")]
                 _stop_pool(ex, kill=True)
                 ex = new_pool(1)
     except BaseException:
@@ -662,14 +663,15 @@ def _dask_client(scheduler):
         raise ParameterError(f"scheduler: cannot connect to {scheduler!r}: {err}") from None
 
 
-def _dask(chunks, client):
+def _dask(chunks, client, task=None, failed=None):
     """Chunks as Dask tasks; a chunk whose task fails is retried point by point."""
     from distributed import as_completed
 
+    task, failed = task or _run_chunk, failed or _failed
     futures = {}
 
     def submit(chunk):
-        fut = client.submit(_run_chunk, chunk, pure=False)
+        fut = client.submit(task, chunk, pure=False)
         futures[fut] = chunk
         return fut
 
@@ -684,8 +686,8 @@ def _dask(chunks, client):
                     for p in chunk:
                         todo.add(submit([p]))
                 else:
-                    yield [_failed(chunk[0], f"the Dask task failed: {type(err).__name__}: "
-                                             f"{err}", type(err).__name__)]
+                    yield [failed(chunk[0], f"the Dask task failed: {type(err).__name__}: "
+                                            f"{err}", type(err).__name__)]
     except BaseException:
         client.cancel(list(futures))
         raise
@@ -753,12 +755,41 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
     if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
         raise ParameterError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
     path = _check_table(table) if table is not None else None
-    jpath = journal_path(path) if path else None
 
     keys = [point_key(p) for p in points]
+    done, stats = _execute(points, keys, _SWEEP_JOB, table=path, workers=workers,
+                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                           chunker=lambda todo, n: _chunks(todo, n, chunk_size))
+    df = _frame(done[k] for k in keys)
+    df.attrs["sweep"] = stats
+    return df
+
+
+class _Job:
+    """How one kind of point is keyed, computed, failed and tabulated.
+
+    ``task`` (a module-level function, so that workers can unpickle it) maps a
+    chunk of points to their records; ``failed(point, message, error)`` is the
+    record of a point whose task died; ``frame(records)`` makes the table;
+    ``key_of(record)`` and ``required`` read the journal back.
+    """
+
+    def __init__(self, task, failed, frame, key_of, required, desc):
+        self.task, self.failed, self.frame = task, failed, frame
+        self.key_of, self.required, self.desc = key_of, required, desc
+
+
+def _execute(points, keys, job, *, table, workers, scheduler, progress, retry_failed, chunker):
+    """Run the points not yet in ``table``'s journal; journal, table and progress bar.
+
+    Returns ``(done, stats)``: ``done`` maps every key of the journal (and of
+    this run) to its record.  Used by :func:`run_sweep` and by the fold map
+    (:func:`skfem_sheet.foldmap.fold_map`).
+    """
+    jpath = journal_path(table) if table else None
     order = list(dict.fromkeys(keys))
     by_key = dict(zip(keys, points))
-    done = read_journal(jpath) if jpath else {}
+    done = read_journal(jpath, key_of=job.key_of, required=job.required) if jpath else {}
     todo_keys = [k for k in order if k not in done
                  or (retry_failed and not done[k].get("converged"))]
     todo = [by_key[k] for k in todo_keys]
@@ -771,7 +802,7 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
 
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=len(order), initial=n_cached, desc="sweep", unit="pt", file=sys.stderr,
+    bar = tqdm(total=len(order), initial=n_cached, desc=job.desc, unit="pt", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     failed = sum(1 for k in order if k in done and k not in todo_keys
                  and not done[k].get("converged"))
@@ -783,11 +814,12 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
         if todo:
             if client is not None:
                 slots = sum(client.nthreads().values()) or 1
-                results = _dask(_chunks(todo, slots, chunk_size), client)
+                results = _dask(chunker(todo, slots), client, job.task, job.failed)
             elif n_workers == 1:
-                results = _in_process(_chunks(todo, 1, chunk_size))
+                results = ([rec] for chunk in chunker(todo, 1) for p in chunk
+                           for rec in job.task([p]))
             else:
-                results = _pool(_chunks(todo, n_workers, chunk_size), n_workers)
+                results = _pool(chunker(todo, n_workers), n_workers, job.task, job.failed)
             try:
                 for recs in results:
                     for rec in recs:
@@ -798,8 +830,8 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
                         failed += not rec["converged"]
                         bar.set_postfix(failed=failed, refresh=False)
                         bar.update(1)
-                    if path and time.monotonic() - last_table > _TABLE_EVERY_S:
-                        _write_table(_frame(_table_records(done, order)), path)
+                    if table and time.monotonic() - last_table > _TABLE_EVERY_S:
+                        _write_table(job.frame(_table_records(done, order)), table)
                         last_table = time.monotonic()
             finally:
                 close = getattr(results, "close", None)
@@ -811,14 +843,16 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
             journal.close()
         if own_client:
             client.close()
-        if path:
+        if table:
             # rebuilt from the journal file: also keeps lines appended by others
-            disk = read_journal(jpath)
-            _write_table(_frame(_table_records(disk, order)), path)
-    df = _frame(done[k] for k in keys)
-    df.attrs["sweep"] = {"new": new, "cached": n_cached, "points": len(order),
-                         "table": path, "journal": jpath}
-    return df
+            disk = read_journal(jpath, key_of=job.key_of, required=job.required)
+            _write_table(job.frame(_table_records(disk, order)), table)
+    return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
+                  "journal": jpath}
+
+
+_SWEEP_JOB = _Job(_run_chunk, _failed, _frame, _sweep_key, ("length", "deflection", "converged"),
+                  "sweep")
 
 
 # -- command line --------------------------------------------------------------------------

@@ -1,0 +1,459 @@
+"""Bistability map: pop-up and standout lengths over a grid of (tip width, curvature).
+
+For every point ``(b/a, a/R)`` of a grid, :func:`~skfem_sheet.bistability.fold_lengths`
+follows the curvature-dominated branch from a short sheet with increasing L
+and the gravity-dominated one from a long sheet with decreasing L, and locates
+their folds, the standout length ``L1*`` and the pop-up length ``L0*``
+(paper, Figs. 6 and 7).  :func:`fold_map` runs the points in parallel (local
+processes, or a Dask cluster) into one tidy table, one row per point, with
+both branch curves ``d(L)`` stored in it; it uses the same journal as
+:func:`skfem_sheet.sweep.run_sweep`, so an interrupted map resumes where it
+stopped and a finished one computes nothing again.
+
+From the table:
+
+- :func:`critical_tip_width`: for each curvature, the shape factor
+  ``(b/a)*`` below which no length is bistable (where ``L0* = L1*``);
+- :func:`modes`: which modes (curvature-dominated, gravity-dominated) exist
+  at given lengths -- the markers of Fig. 6;
+- :func:`branch_curve`: the branch data ``(L, d, stable)`` of a row.
+
+Command line::
+
+    python -m skfem_sheet fold-map --tip-widths 0.5:1:0.1 --curvatures 1,2.5,5 \\
+        --hmax 0.1 --table foldmap.csv [--workers N] [--scheduler tcp://host:port]
+
+Examples
+--------
+>>> from skfem_sheet.foldmap import map_points, fold_map
+>>> pts = map_points(tip_widths=[0.0], curvatures=[2.5], lengths=(0.8, 1.0), hmax=0.15,
+...                  step=0.2)
+>>> df = fold_map(pts, workers=1, progress=False)
+>>> bool(df.converged[0]), bool(df.bistable[0])
+(True, False)
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import os
+import socket
+import time
+import traceback
+from datetime import datetime, timezone
+
+import numpy as np
+
+from .params import ParameterError, check_range
+from . import sweep as _sweep
+
+__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
+           "transition_length", "modes", "critical_tip_width", "add_fold_map_subparser"]
+
+#: Input parameters of a map point and their defaults.
+MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
+                  "hmax": 0.1, "layers": None, "step": 0.1, "tol": 0.005, "thickness": 0.03,
+                  "modulus": 735.0, "solver": "auto"}
+_NUMERIC = ("tip_width", "curvature", "length_min", "length_max", "hmax", "step", "tol",
+            "thickness", "modulus")
+
+#: Columns of the table, in order.  ``curvature_dominated`` and
+#: ``gravity_dominated`` hold the branch curves as JSON
+#: (``{"lengths": [...], "deflection": [...], "stable": [...]}``, see
+#: :func:`branch_curve`).
+MAP_COLUMNS = (*MAP_PARAMETERS, "popup_length", "standout_length", "bistable",
+               "bistable_width", "transition_length", "converged", "message",
+               "curvature_dominated_reason", "gravity_dominated_reason",
+               "curvature_dominated", "gravity_dominated", "newton_iterations", "wall_time_s",
+               "version", "key", "error", "finished_at")
+_FLOAT = (*_NUMERIC, "popup_length", "standout_length", "bistable_width", "transition_length",
+          "wall_time_s")
+_INT = ("layers", "newton_iterations")
+_STR = ("solver", "message", "curvature_dominated_reason", "gravity_dominated_reason",
+        "curvature_dominated", "gravity_dominated", "version", "key", "error", "finished_at")
+
+
+# -- points and keys -------------------------------------------------------------------------
+def _normalize(point) -> dict:
+    if not isinstance(point, dict):
+        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
+    unknown = [k for k in point if k not in MAP_PARAMETERS]
+    if unknown:
+        raise ParameterError(f"map point parameter {unknown[0]!r} is unknown; "
+                             f"allowed: {', '.join(MAP_PARAMETERS)}")
+    out = {}
+    for name, default in MAP_PARAMETERS.items():
+        v = point.get(name, default)
+        if name in _NUMERIC:
+            v = _sweep._norm_number(v)
+        elif name == "layers":
+            v = _sweep._norm_layers(v)
+        out[name] = v
+    return out
+
+
+def _key(point) -> str:
+    p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
+    text = json.dumps(["fold-map", *[[k, _sweep._key_value(p[k])] for k in MAP_PARAMETERS]],
+                      separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
+               step: float = 0.1, tol: float = 0.005, thickness: float = 0.03,
+               modulus: float = 735.0, solver: str = "auto") -> list:
+    """The grid ``tip_widths x curvatures`` as map points (dicts), curvature outermost.
+
+    ``lengths = (short, long)`` is the search range of every point: the
+    curvature-dominated branch is followed up from ``short``, the
+    gravity-dominated one down from ``long`` (see
+    :func:`~skfem_sheet.bistability.fold_lengths`).
+
+    Examples
+    --------
+    >>> pts = map_points([0.5, 1.0], [1.0, 2.5])
+    >>> len(pts), pts[1]["tip_width"], pts[1]["curvature"], pts[0]["length_max"]
+    (4, 1.0, 1.0, 3.0)
+    """
+    tw = _sweep._values("tip_widths", tip_widths)
+    cv = _sweep._values("curvatures", curvatures)
+    if not (isinstance(lengths, (tuple, list)) and len(lengths) == 2):
+        raise ParameterError(f"lengths must be (short, long), got {lengths!r}")
+    n = len(tw) * len(cv)
+    if n > _sweep._MAX_POINTS:
+        raise ParameterError(f"the map must have at most {_sweep._MAX_POINTS} points, got {n}")
+    return [_normalize(dict(tip_width=b, curvature=c, length_min=lengths[0],
+                            length_max=lengths[1], hmax=hmax, layers=layers, step=step, tol=tol,
+                            thickness=thickness, modulus=modulus, solver=solver))
+            for c, b in itertools.product(cv, tw)]
+
+
+# -- one point (runs in the workers) ---------------------------------------------------------
+def _empty_record(point, key):
+    from . import __version__
+
+    rec = dict(point)
+    rec.update(popup_length=math.nan, standout_length=math.nan, bistable=False,
+               bistable_width=math.nan, transition_length=math.nan, converged=False,
+               message="", curvature_dominated_reason="", gravity_dominated_reason="",
+               curvature_dominated="", gravity_dominated="", newton_iterations=None,
+               wall_time_s=math.nan, version=__version__, key=key, error="")
+    return rec
+
+
+def _curve_json(branch) -> str:
+    return json.dumps({"lengths": [round(float(x), 10) for x in branch.lengths],
+                       "deflection": [float(x) for x in branch.deflections],
+                       "stable": [None if s is None else bool(s) for s in branch.stable]},
+                      separators=(",", ":"))
+
+
+def _nan(x):
+    return math.nan if x is None else float(x)
+
+
+def _run_map_point(point) -> dict:
+    """Fold lengths of one normalised map point; every exception becomes a failed record."""
+    from .bistability import fold_lengths
+
+    key = _key(point)
+    rec = _empty_record(point, key)
+    t0 = time.perf_counter()
+    try:
+        r = fold_lengths(point["tip_width"], point["curvature"],
+                         lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
+                         layers=point["layers"], solver=point["solver"], step=point["step"],
+                         tol=point["tol"], thickness=point["thickness"],
+                         modulus=point["modulus"])
+        up, down = r.increasing, r.decreasing
+        notes = []
+        if up.start_snapped:
+            notes.append(f"the curvature-dominated branch does not exist at L/a = "
+                         f"{point['length_min']:g} (lower length_min)")
+        if down.start_snapped:
+            notes.append(f"the gravity-dominated branch does not exist at L/a = "
+                         f"{point['length_max']:g} (raise length_max)")
+        width = (r.standout_length - r.popup_length
+                 if r.popup_length is not None and r.standout_length is not None else None)
+        rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
+                   bistable=bool(r.bistable), bistable_width=_nan(width),
+                   converged=not notes, message="; ".join(notes),
+                   curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
+                   curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
+                   newton_iterations=int(up.newton_iterations
+                                         + (down.newton_iterations if down is not up else 0)),
+                   wall_time_s=float(r.wall_time_s))
+        rec["transition_length"] = _nan(transition_length(rec))
+    except Exception as err:  # noqa: BLE001 - one bad point must not stop the map
+        rec.update(message=str(err) or type(err).__name__, error=type(err).__name__,
+                   wall_time_s=time.perf_counter() - t0)
+        if not isinstance(err, ParameterError):
+            rec["traceback"] = traceback.format_exc()
+    rec["finished_at"] = datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+    rec["host"] = socket.gethostname()
+    rec["pid"] = os.getpid()
+    return {k: _sweep._pyval(v) for k, v in rec.items()}
+
+
+def _run_map_chunk(points) -> list:
+    return [_run_map_point(p) for p in points]
+
+
+def _failed_map_point(point, message, error):
+    rec = _empty_record(point, _key(point))
+    rec.update(message=message, error=error,
+               finished_at=datetime.now(timezone.utc).isoformat(timespec="milliseconds"))
+    return rec
+
+
+def _frame(records):
+    import pandas as pd
+
+    df = pd.DataFrame.from_records(list(records), columns=list(MAP_COLUMNS))
+    for c in _FLOAT:
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
+    for c in _INT:
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
+    for c in ("bistable", "converged"):
+        df[c] = df[c].fillna(False).astype(bool)
+    string = "str" if int(pd.__version__.split(".")[0]) >= 3 else object
+    for c in _STR:
+        df[c] = df[c].astype(object).where(df[c].notna(), None).astype(string)
+    return df
+
+
+_MAP_JOB = _sweep._Job(_run_map_chunk, _failed_map_point, _frame, _key,
+                       ("tip_width", "curvature", "converged", "popup_length"), "fold map")
+
+
+def _chunks(points, n_workers):
+    """One point per task, the most expensive (long, strongly curved) first."""
+    return [[p] for p in sorted(points, key=lambda p: (-p["curvature"], -p["tip_width"]))]
+
+
+def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
+             retry_failed=False):
+    """Fold lengths of every map point, in parallel, into one resumable table.
+
+    Parameters
+    ----------
+    points : list of dict
+        From :func:`map_points` (or dicts of :data:`MAP_PARAMETERS`).
+    table : str or path, optional
+        ``.csv`` or ``.parquet`` file, with a journal beside it: points
+        already in the journal are not computed again (as in
+        :func:`skfem_sheet.sweep.run_sweep`, whose module docstring describes
+        the journal).
+    workers, scheduler, progress, retry_failed
+        As in :func:`skfem_sheet.sweep.run_sweep`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per point (:data:`MAP_COLUMNS`): ``popup_length`` (``L0*``,
+        NaN if the gravity-dominated branch held down to ``length_min``),
+        ``standout_length`` (``L1*``, NaN if the curvature-dominated one held
+        up to ``length_max``), ``bistable``, ``bistable_width``
+        (``L1* - L0*``), ``transition_length`` (:func:`transition_length`),
+        ``converged`` (both branches started where they should; otherwise
+        ``message`` says which range end to move) and the branch curves.
+
+    Examples
+    --------
+    >>> df = fold_map(map_points([0.0], [2.5], lengths=(0.8, 1.0), hmax=0.15, step=0.2),
+    ...               workers=1, progress=False)
+    >>> float(df.popup_length[0]) != float(df.popup_length[0])  # NaN: no fold in range
+    True
+    """
+    if isinstance(points, dict):
+        raise ParameterError("points must be a list of dicts (use map_points(...)), got one dict")
+    points = [_normalize(p) for p in points]
+    if scheduler is not None and workers is not None:
+        raise ParameterError("workers must not be given with scheduler (Dask decides)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    path = _sweep._check_table(table) if table is not None else None
+    keys = [_key(p) for p in points]
+    done, stats = _sweep._execute(points, keys, _MAP_JOB, table=path, workers=workers,
+                                  scheduler=scheduler, progress=progress,
+                                  retry_failed=retry_failed, chunker=_chunks)
+    df = _frame(done[k] for k in keys)
+    df.attrs["fold_map"] = stats
+    return df
+
+
+# -- reading the table -----------------------------------------------------------------------
+def branch_curve(row, which: str = "curvature_dominated"):
+    """``(lengths, deflections, stable)`` arrays of one branch of a table row.
+
+    ``which`` is ``"curvature_dominated"`` (followed with increasing L from
+    ``length_min``) or ``"gravity_dominated"`` (decreasing L from
+    ``length_max``); points are sorted by length.
+    """
+    if which not in ("curvature_dominated", "gravity_dominated"):
+        raise ParameterError("which must be 'curvature_dominated' or 'gravity_dominated', "
+                             f"got {which!r}")
+    text = row[which]
+    if not isinstance(text, str) or not text:
+        return np.empty(0), np.empty(0), np.empty(0, dtype=object)
+    data = json.loads(text)
+    L = np.asarray(data["lengths"], float)
+    order = np.argsort(L, kind="stable")
+    return (L[order], np.asarray(data["deflection"], float)[order],
+            np.asarray(data["stable"], dtype=object)[order])
+
+
+def transition_length(row) -> float | None:
+    """Where the curvature-dominated mode gives way to the gravity-dominated one.
+
+    For a bistable row there are two (``L0*`` and ``L1*``) and this returns
+    None.  Otherwise: the single fold found, if there is one; else (the
+    transition is continuous) the middle of the steepest interval of
+    ``d(L)`` on the curvature-dominated branch; None for a flat curve
+    (``a/R = 0``, where there is no curvature-dominated mode to lose).
+    """
+    if bool(row["bistable"]):
+        return None
+    folds = [f for f in (row["standout_length"], row["popup_length"])
+             if f is not None and np.isfinite(f)]
+    if folds:
+        return float(np.mean(folds))
+    if float(row["curvature"]) == 0.0:
+        return None
+    L, d, _ = branch_curve(row)
+    if len(L) < 3:
+        return None
+    slope = np.diff(d) / np.diff(L)
+    i = int(np.argmax(slope))
+    return float(0.5 * (L[i] + L[i + 1]))
+
+
+def modes(row, lengths):
+    """Which modes exist at ``lengths`` (the markers of the paper's Fig. 6).
+
+    Returns two boolean arrays, ``(curvature_dominated, gravity_dominated)``.
+    Bistable row: the curvature-dominated mode exists up to ``L1*``, the
+    gravity-dominated one from ``L0*``, both in between.  Otherwise the sheet
+    has one mode at each length, on either side of :func:`transition_length`
+    (a flat clamp, ``a/R = 0``: gravity-dominated everywhere).
+
+    Examples
+    --------
+    >>> row = {"bistable": True, "popup_length": 1.2, "standout_length": 1.35,
+    ...        "curvature": 2.5}
+    >>> [m.tolist() for m in modes(row, [1.0, 1.3, 1.5])]
+    [[True, True, False], [False, True, True]]
+    """
+    L = np.asarray(lengths, float)
+    if bool(row["bistable"]):
+        return L <= row["standout_length"], L >= row["popup_length"]
+    t = row.get("transition_length") if hasattr(row, "get") else None
+    if t is None or not np.isfinite(t):
+        t = transition_length(row)
+    if t is None:
+        return np.zeros(L.shape, bool), np.ones(L.shape, bool)
+    return L < t, L >= t
+
+
+def critical_tip_width(df) -> dict:
+    """For each curvature: the critical shape factor ``(b/a)*`` of the map rows.
+
+    Returns ``{curvature: (estimate, low, high)}``: the shape factors of the
+    map are bistable from ``high`` up and not at ``low`` (the largest
+    non-bistable one below ``high``), so ``(b/a)*`` is in ``[low, high]``;
+    ``estimate`` extrapolates the width ``L1* - L0*`` of the two smallest
+    bistable shape factors linearly to zero, clipped to the bracket.  A
+    curvature with no bistable shape factor gives ``(nan, max b, nan)``; one
+    bistable at every shape factor of the map gives ``(nan, nan, min b)``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"curvature": [2.5] * 3, "tip_width": [0.6, 0.8, 1.0],
+    ...                    "bistable": [False, True, True], "converged": [True] * 3,
+    ...                    "bistable_width": [float("nan"), 0.05, 0.15]})
+    >>> critical_tip_width(df)[2.5]
+    (0.7, 0.6, 0.8)
+    """
+    out = {}
+    for c, g in df[df["converged"]].groupby("curvature"):
+        g = g.sort_values("tip_width")
+        b = g["tip_width"].to_numpy(float)
+        bi = g["bistable"].to_numpy(bool)
+        w = g["bistable_width"].to_numpy(float)
+        if not bi.any():
+            out[float(c)] = (math.nan, float(b.max()), math.nan)
+            continue
+        # the bistable shape factors from the top down, until the first that is not
+        first = len(b) - 1
+        while first > 0 and bi[first - 1]:
+            first -= 1
+        if first == 0:
+            out[float(c)] = (math.nan, math.nan, float(b[0]))
+            continue
+        lo, hi = float(b[first - 1]), float(b[first])
+        est = 0.5 * (lo + hi)
+        if first + 1 < len(b) and w[first + 1] > w[first] > 0:
+            est = hi - w[first] * (b[first + 1] - hi) / (w[first + 1] - w[first])
+            est = float(np.clip(est, lo, hi))
+        out[float(c)] = (round(float(est), 10), lo, hi)
+    return out
+
+
+# -- command line ----------------------------------------------------------------------------
+def add_fold_map_subparser(sub) -> None:
+    p = sub.add_parser(
+        "fold-map", help="pop-up and standout lengths over a grid of (b/a, a/R)",
+        description="Fold lengths L0* (pop-up) and L1* (standout) for every (tip width, "
+                    "curvature) of a grid, in parallel, into a resumable table; prints the "
+                    "critical shape factor (b/a)* of each curvature.")
+    p.add_argument("--tip-widths", default="0.5:1:0.1",
+                   help="b/a values: a list '0.6,0.8,1' or a range 'start:stop:step'")
+    p.add_argument("--curvatures", default="2.5", help="a/R values (list or range)")
+    p.add_argument("--lengths", default="0.5:3", help="search range 'short:long' in L/a")
+    p.add_argument("--hmax", type=float, default=0.1)
+    p.add_argument("--layers", type=int, default=None)
+    p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
+    p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
+    p.add_argument("--solver", default="auto")
+    p.add_argument("--table", default=None, help="results .csv or .parquet (resumable)")
+    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
+    p.add_argument("--retry-failed", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cli)
+
+
+def _cli(args) -> int:
+    from .bistability import _parse_range
+
+    tip_widths = _sweep.parse_values(args.tip_widths, "tip-widths")
+    curvatures = _sweep.parse_values(args.curvatures, "curvatures")
+    lengths = _parse_range(args.lengths)
+    points = map_points(tip_widths, curvatures, lengths=lengths, hmax=args.hmax,
+                        layers=args.layers, step=args.step, tol=args.tol, solver=args.solver)
+    df = fold_map(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
+                  progress=not args.quiet, retry_failed=args.retry_failed)
+
+    def fmt(x):
+        return "   none" if not np.isfinite(x) else f"{x:7.3f}"
+
+    print(f"hmax = {args.hmax:g}, L/a searched in [{lengths[0]:g}, {lengths[1]:g}]")
+    print("  a/R    b/a   L0* pop-up  L1* standout  bistable  converged")
+    for _, r in df.iterrows():
+        print(f"{r.curvature:5.2f}  {r.tip_width:5.2f}      {fmt(r.popup_length)}       "
+              f"{fmt(r.standout_length)}  {str(bool(r.bistable)):>8}  {str(bool(r.converged)):>9}"
+              + (f"  {r.message}" if r.message else ""))
+    for c, (est, lo, hi) in critical_tip_width(df).items():
+        if np.isfinite(est):
+            print(f"a/R = {c:g}: (b/a)* ~ {est:.3f}, in [{lo:g}, {hi:g}]")
+        elif np.isfinite(lo):
+            print(f"a/R = {c:g}: no bistable shape factor up to b/a = {lo:g}")
+        else:
+            print(f"a/R = {c:g}: bistable down to b/a = {hi:g} (the smallest in the map)")
+    if args.table:
+        print(f"table: {df.attrs['fold_map']['table']}")
+    return 0 if df["converged"].all() else 1

@@ -1,0 +1,145 @@
+"""The fold map: points and keys, reading the table (modes, transition, (b/a)*), resuming."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skfem_sheet import foldmap as fm
+from skfem_sheet.params import ParameterError
+from skfem_sheet.sweep import journal_path
+
+
+def _row(b, c, L0=math.nan, L1=math.nan, curve=None):
+    bistable = np.isfinite(L0) and np.isfinite(L1) and L1 - L0 > 0.01
+    rec = {**fm.MAP_PARAMETERS, "tip_width": b, "curvature": c, "popup_length": L0,
+           "standout_length": L1, "bistable": bistable,
+           "bistable_width": L1 - L0 if bistable else math.nan, "converged": True,
+           "curvature_dominated": json.dumps(curve or {"lengths": [], "deflection": [],
+                                                       "stable": []}),
+           "gravity_dominated": ""}
+    rec["transition_length"] = fm.transition_length(rec)
+    return rec
+
+
+def test_map_points_grid_order_and_keys():
+    pts = fm.map_points([0.5, 1.0], [2.5, 5.0], lengths=(0.6, 2.4), hmax=0.1)
+    assert [(p["curvature"], p["tip_width"]) for p in pts] == \
+        [(2.5, 0.5), (2.5, 1.0), (5.0, 0.5), (5.0, 1.0)]
+    assert all(p["length_min"] == 0.6 and p["length_max"] == 2.4 for p in pts)
+    # the key is that of the rounded parameters: arange noise does not make a new point
+    noisy = fm.map_points([0.1 + 0.2], [2.5])[0]
+    assert fm._key(noisy) == fm._key(fm.map_points([0.3], [2.5])[0])
+    assert fm._key(pts[0]) != fm._key(pts[1])
+    # and it is not a sweep point's key
+    assert len({fm._key(p) for p in pts}) == 4
+
+
+@pytest.mark.parametrize("bad, match", [
+    (dict(tip_widths=[], curvatures=[2.5]), "tip_widths"),
+    (dict(tip_widths=[1.0], curvatures=[2.5], lengths=(1.0,)), "lengths"),
+])
+def test_map_points_bad_input(bad, match):
+    with pytest.raises(ParameterError, match=match):
+        fm.map_points(**bad)
+
+
+def test_fold_map_bad_input(tmp_path):
+    with pytest.raises(ParameterError, match="unknown"):
+        fm.fold_map([{"tip_width": 1.0, "length": 2.0}], progress=False)
+    with pytest.raises(ParameterError, match="workers"):
+        fm.fold_map(fm.map_points([1.0], [2.5]), workers=0, progress=False)
+    with pytest.raises(ParameterError, match="table"):
+        fm.fold_map(fm.map_points([1.0], [2.5]), table=tmp_path / "x.txt", progress=False)
+
+
+def test_modes_bistable_row():
+    row = _row(1.0, 2.5, L0=1.2, L1=1.35)
+    cur, grav = fm.modes(row, [1.0, 1.2, 1.3, 1.35, 1.5])
+    assert cur.tolist() == [True, True, True, True, False]
+    assert grav.tolist() == [False, True, True, True, True]
+    assert fm.transition_length(row) is None
+
+
+def test_transition_of_a_continuous_curve_is_its_steepest_interval():
+    L = np.arange(0.5, 2.01, 0.1)
+    d = 0.5 * (1 + np.tanh((L - 1.23) / 0.05))  # steepest at 1.23
+    row = _row(0.0, 2.5, curve={"lengths": L.tolist(), "deflection": d.tolist(),
+                                "stable": [True] * len(L)})
+    t = fm.transition_length(row)
+    assert abs(t - 1.25) < 1e-9  # the middle of [1.2, 1.3], the interval holding 1.23
+    cur, grav = fm.modes(row, [1.0, 1.4])
+    assert cur.tolist() == [True, False] and grav.tolist() == [False, True]
+
+
+def test_one_fold_only_is_the_transition():
+    row = _row(0.6, 2.5, L0=1.24)  # the gravity-dominated branch lost, no standout
+    assert not row["bistable"]
+    assert fm.transition_length(row) == pytest.approx(1.24)
+
+
+def test_flat_clamp_is_gravity_dominated_everywhere():
+    L = [0.5, 1.0, 1.5]
+    row = _row(1.0, 0.0, curve={"lengths": L, "deflection": [0.1, 0.5, 0.9],
+                                "stable": [True] * 3})
+    cur, grav = fm.modes(row, L)
+    assert not cur.any() and grav.all()
+
+
+def test_critical_tip_width_bracket_and_linear_estimate():
+    rows = [_row(b, 2.5, L0, L1) for b, L0, L1 in
+            [(0.5, math.nan, math.nan), (0.6, 1.24, math.nan), (0.7, 1.23, 1.27),
+             (0.8, 1.22, 1.31), (1.0, 1.2, 1.35)]]
+    rows += [_row(b, 1.0) for b in (0.8, 1.0)]
+    rows += [_row(b, 5.0, 2.0, 2.4) for b in (0.5, 1.0)]
+    crit = fm.critical_tip_width(pd.DataFrame(rows))
+    est, lo, hi = crit[2.5]
+    assert (lo, hi) == (0.6, 0.7)
+    # widths 0.04 at 0.7 and 0.09 at 0.8: zero at 0.7 - 0.04 * 0.1 / 0.05 = 0.62
+    assert est == pytest.approx(0.62)
+    assert math.isnan(crit[1.0][0]) and crit[1.0][1] == 1.0
+    assert math.isnan(crit[5.0][0]) and crit[5.0][2] == 0.5
+
+
+def test_branch_curve_sorted_by_length():
+    row = {"curvature_dominated": json.dumps({"lengths": [1.0, 0.8, 0.9],
+                                              "deflection": [3, 1, 2],
+                                              "stable": [True, None, False]})}
+    L, d, st = fm.branch_curve(row)
+    assert L.tolist() == [0.8, 0.9, 1.0] and d.tolist() == [1, 2, 3]
+    assert st.tolist() == [None, False, True]
+    with pytest.raises(ParameterError, match="which"):
+        fm.branch_curve(row, "up")
+
+
+def test_flat_sheet_map_point_is_one_increasing_branch_and_resumes(tmp_path):
+    """a/R = 0: one branch (both load paths are one problem); d grows with L (a
+    heavier, longer cantilever sags more); a second run computes nothing."""
+    table = tmp_path / "map.csv"
+    pts = fm.map_points([1.0], [0.0], lengths=(0.5, 0.7), hmax=0.15, step=0.1)
+    df = fm.fold_map(pts, table=table, workers=1, progress=False)
+    r = df.iloc[0]
+    assert r.converged and not r.bistable
+    assert math.isnan(r.popup_length) and math.isnan(r.standout_length)
+    L, d, st = fm.branch_curve(r)
+    assert L[0] == pytest.approx(0.5) and L[-1] == pytest.approx(0.7)
+    assert np.all(np.diff(d) > 0) and all(st)
+    assert r.gravity_dominated == r.curvature_dominated
+    assert df.attrs["fold_map"]["new"] == 1
+    # resume: nothing recomputed, the same row back; a line cut short is ignored
+    with open(journal_path(table), "a") as fh:
+        fh.write('{"tip_width": 1.0, "curv')
+    again = fm.fold_map(pts, table=table, workers=1, progress=False)
+    assert again.attrs["fold_map"]["new"] == 0
+    assert again.iloc[0].curvature_dominated == r.curvature_dominated
+    assert len(pd.read_csv(table)) == 1
+
+
+def test_cli_bad_input_is_one_line():
+    out = subprocess.run([sys.executable, "-m", "skfem_sheet", "fold-map", "--tip-widths", "x"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2
+    assert "tip-widths" in out.stderr and "Traceback" not in out.stderr
