@@ -60,7 +60,36 @@ class LinearSolverError(RuntimeError):
     an iterative solve did not reach its tolerance."""
 
 
+def _locate_mkl() -> None:
+    """Tell pypardiso where MKL's ``mkl_rt`` is before it looks for itself.
+
+    Importing pypardiso creates a solver, which (unless ``PYPARDISO_MKL_RT``
+    is set) globs ``sys.prefix`` recursively for ``mkl_rt``: 1-2 s per
+    process, a visible share of a coarse solve and of every sweep worker.
+    The ``mkl`` wheel's file list (``importlib.metadata``) names the library
+    in milliseconds.  Nothing is set if it is not found there (pypardiso then
+    searches as usual) or if the user set the variable.
+    """
+    import importlib.metadata as md
+    import os
+
+    if "PYPARDISO_MKL_RT" in os.environ:
+        return
+    try:
+        files = md.files("mkl") or []
+    except md.PackageNotFoundError:
+        return
+    for f in sorted((f for f in files if f.name.startswith("libmkl_rt.so")
+                     or f.name == "mkl_rt.dll" or f.name.startswith("libmkl_rt.")),
+                    key=lambda f: len(str(f))):
+        path = os.path.realpath(f.locate())
+        if os.path.isfile(path):
+            os.environ["PYPARDISO_MKL_RT"] = path
+            return
+
+
 def _have_pardiso() -> bool:
+    _locate_mkl()
     try:
         import pypardiso  # noqa: F401
     except (ImportError, OSError):
@@ -265,6 +294,7 @@ class PardisoSolver(_Timed):
 
     def __init__(self):
         super().__init__()
+        _locate_mkl()
         from pypardiso import PyPardisoSolver
 
         self._ps = PyPardisoSolver(mtype=-2)

@@ -222,3 +222,21 @@ def test_pyamg_pads_nodes_with_fewer_free_components():
     s = PyAMGSolver()
     s.attach(_reference_problem(half=True))
     assert s._pad is not None and s._npad > s._nu
+
+
+def test_mkl_is_located_without_a_directory_scan(monkeypatch):
+    """pypardiso globs sys.prefix for mkl_rt (1-2 s) unless PYPARDISO_MKL_RT is
+    set; the mkl wheel's file list names it, and it must be a loadable file."""
+    import ctypes
+    import os
+
+    pytest.importorskip("pypardiso")
+    from skfem_sheet import linalg
+
+    monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
+    linalg._locate_mkl()
+    path = os.environ.get("PYPARDISO_MKL_RT")
+    if path is None:
+        pytest.skip("MKL not installed from the mkl wheel here")
+    assert os.path.isfile(path) and "mkl_rt" in os.path.basename(path)
+    ctypes.CDLL(path).pardiso  # the symbol pypardiso calls
