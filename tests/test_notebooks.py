@@ -35,7 +35,8 @@ def _has_assert(nb):
 
 
 def test_notebooks_present():
-    assert {"quickstart.ipynb", "reduced_models.ipynb"} <= {p.name for p in NOTEBOOKS.iterdir()}
+    assert ({"quickstart.ipynb", "reduced_models.ipynb", "bistability.ipynb"}
+            <= {p.name for p in NOTEBOOKS.iterdir()})
 
 
 def test_quickstart(tmp_path):
@@ -53,3 +54,10 @@ def test_reduced_models(tmp_path):
     # every code cell ran (an error would have raised CellExecutionError)
     assert all(c.get("execution_count") for c in nb.cells if c.cell_type == "code")
 
+
+def test_bistability(tmp_path):
+    nb = _run("bistability.ipynb", tmp_path)
+    assert _has_assert(nb)
+    out = _outputs(nb)
+    assert "pop-up length   L0*/a = " in out and "folds at L/a = " in out
+    assert all(c.get("execution_count") for c in nb.cells if c.cell_type == "code")
