@@ -454,6 +454,9 @@ def _write_table(df, path):
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
                                dir=folder)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it 0600; a table is an ordinary file
     try:
         with os.fdopen(fd, "wb") as fh:
             if path.lower().endswith(".parquet"):

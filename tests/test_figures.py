@@ -1,243 +1,425 @@
-"""Figures (issue 6): drawing on synthetic data, caching, and the ``figure`` command.
+"""Figures (issue 6): drawing from fold-map tables, caching, and the ``figure`` command.
 
-The finite-element data come from :mod:`skfem_sheet.sweep`; here a stand-in
-with the same contract (``grid`` = cartesian product, ``run_sweep`` = journal
-table in which points already present are not recomputed) returns synthetic
-rows, so these tests run in seconds.
+The finite-element data of fig2 and fig4-fig7 come from one fold-map table
+(:func:`skfem_sheet.foldmap.fold_map`).  Here its one-point computation
+(``foldmap._run_map_point``) is replaced by synthetic records with the same
+contract (both branch curves as JSON, folds, stability), while the real
+journal and table are used, so these tests run in seconds; the drawing tests
+build small map tables directly.  One test runs a real (tiny) map point.
 """
-import itertools
-import sys
-import types
+import json
+import math
 
 import numpy as np
 import pytest
 
 pd = pytest.importorskip("pandas")
 
-from skfem_sheet import figures  # noqa: E402
+from skfem_sheet import figures, foldmap  # noqa: E402
 from skfem_sheet.cli import main  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
-
-def _synthetic_row(p):
-    L, b, k, path = p["length"], p["tip_width"], p["curvature"], p["path"]
-    d = 0.35 * L**2 * (1 + b) / 2 - 0.08 * k
-    snapped = False
-    if path == "gravity-first" and k >= 2.5 and 1.1 < L < 1.8:
-        d += 0.5  # the drooped branch of a bistable sheet
-    if path == "curvature-first" and b == 1.0 and k == 5.0 and L == 2.2:
-        snapped, d = True, d + 0.5  # landed on the drooped branch
-    converged = not (b == 0.0 and k == 5.0 and L == 0.6 and path == "curvature-first")
-    return {**p, "deflection": d, "converged": converged, "snapped": snapped,
-            "branch": "gravity-dominated" if d > 0.3 else "curvature-dominated",
-            "stable": True, "newton_iterations": 10, "wall_time_s": 1.0}
+#: The quick grid as the issue states it (the lead's map run uses exactly these points).
+ISSUE_GRID = {0.0: [0, .2, .4, .6, .8, 1], 1.0: [0, .5, .6, .7, .8, .9, 1],
+              1.5: [.5, .6, .7, .8, .9, 1], 2.0: [.5, .6, .7, .8, .9, 1],
+              2.5: [0, .2, .4, .5, .6, .7, .8, .9, 1], 3.5: [.5, .6, .7, .8, .9, 1],
+              5.0: [0, .2, .4, .5, .6, .7, .8, .9, 1]}
 
 
-class FakeSweep(types.ModuleType):
-    """Stand-in for skfem_sheet.sweep: a CSV journal per table."""
+# -- synthetic map rows ---------------------------------------------------------------------
+def _folds(b, c):
+    """Synthetic folds: bistable for a/R >= 2 and b/a > 0.65, widening with both."""
+    if c >= 2.0 and b > 0.65:
+        L1 = 1.2 + 0.1 * c + 0.3 * (b - 0.65)
+        return L1 - 1.5 * (b - 0.65) * (c / 5.0), L1
+    return None
 
-    def __init__(self):
-        super().__init__("skfem_sheet.sweep")
-        self.computed = 0
-        self.tables = []
 
-    @staticmethod
-    def grid(**axes):
-        keys = list(axes)
-        vals = [v if isinstance(v, (list, tuple)) else [v] for v in axes.values()]
-        return [dict(zip(keys, combo)) for combo in itertools.product(*vals)]
+def _curve(L, d, stable=None):
+    stable = [True] * len(L) if stable is None else stable
+    return json.dumps({"lengths": [float(x) for x in L], "deflection": [float(x) for x in d],
+                       "stable": stable})
 
-    @staticmethod
-    def add_sweep_subparser(sub):
-        """The real module registers a ``sweep`` command; the stand-in has none."""
 
-    def run_sweep(self, points, table, workers=None, progress=True):
-        self.tables.append(str(table))
-        try:
-            old = pd.read_csv(table)
-        except FileNotFoundError:
-            old = pd.DataFrame()
-        have = set()
-        if len(old):
-            have = {(r.length, r.tip_width, r.curvature, r.path, r.hmax)
-                    for r in old.itertuples()}
-        new = [_synthetic_row(p) for p in points
-               if (p["length"], p["tip_width"], p["curvature"], p["path"], p["hmax"]) not in have]
-        self.computed += len(new)
-        df = pd.concat([old, pd.DataFrame(new)], ignore_index=True) if new else old
-        df.to_csv(table, index=False)
-        return pd.read_csv(table)
+def _gravity(L, b, c):
+    return 0.3 * L**2 * (1 + b) / 2 - 0.02 * c
+
+
+def _aloft(L, c):
+    return -0.01 * c * L
+
+
+def synthetic_row(point):
+    """A map-table row like :func:`foldmap._run_map_point`'s, from a toy model."""
+    b, c = float(point["tip_width"]), float(point["curvature"])
+    lo, hi = float(point["length_min"]), float(point["length_max"])
+    L = np.round(np.arange(lo, hi + 1e-9, 0.1), 6)
+    rec = foldmap._empty_record(dict(point), foldmap._key(point))
+    folds = _folds(b, c)
+    if folds is not None:
+        L0, L1 = folds
+        Lc = np.r_[L[L < L1 - 0.01], L1 - 0.0025]
+        Lg = np.r_[L0 + 0.0025, L[L > L0 + 0.01]]
+        rec.update(popup_length=L0, standout_length=L1, bistable=True,
+                   bistable_width=L1 - L0,
+                   curvature_dominated=_curve(Lc, _aloft(Lc, c)),
+                   gravity_dominated=_curve(Lg[::-1], _gravity(Lg, b, c)[::-1]))
+    else:
+        t = 1.0 + 0.1 * c
+        d = _gravity(L, b, c) if c == 0 else np.where(L < t, _aloft(L, c), _gravity(L, b, c))
+        rec.update(curvature_dominated=_curve(L, d), gravity_dominated=_curve(L[::-1], d[::-1]),
+                   transition_length=math.nan if c == 0 else t)
+    rec.update(converged=True, newton_iterations=10, wall_time_s=1.0)
+    return rec
+
+
+def _table(grid, changes=None):
+    """A map table (like fold_map's) of synthetic rows for ``{a/R: [b/a]}``."""
+    pts = [p for c, bs in grid.items() for p in foldmap.map_points(bs, [c])]
+    recs = [synthetic_row(p) for p in pts]
+    for (b, c), upd in (changes or {}).items():
+        for r in recs:
+            if r["tip_width"] == b and r["curvature"] == c:
+                r.update(upd)
+    return foldmap._frame(recs)
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
 
 
 @pytest.fixture
-def sweep(monkeypatch):
-    fake = FakeSweep()
-    monkeypatch.setitem(sys.modules, "skfem_sheet.sweep", fake)
-    return fake
+def compute(monkeypatch):
+    """Count the map points computed; each yields a synthetic row."""
+    calls = []
+
+    def fake(point):
+        calls.append((point["curvature"], point["tip_width"]))
+        return synthetic_row(point)
+
+    monkeypatch.setattr(foldmap, "_run_map_point", fake)
+    return calls
 
 
 def _legend_texts(fig):
     texts = []
     for ax in fig.axes:
-        for child in ax.get_children():
-            if child.__class__.__name__ == "Legend":
-                texts += [t.get_text() for t in child.get_texts()]
+        leg = ax.get_legend()
+        if leg is not None:
+            texts += [t.get_text() for t in leg.get_texts()]
     for leg in fig.legends:
         texts += [t.get_text() for t in leg.get_texts()]
     return texts
 
 
-def test_fig2_png_axes_legend(sweep, tmp_path):
-    out = tmp_path / "fig2.png"
-    fig = figures.make_figure("fig2", "quick", out=str(out), data_dir=tmp_path, progress=False)
-    assert out.read_bytes()[:8] == PNG_MAGIC
-    a, b = fig.axes
-    assert b.get_xlabel() == "$L/a$" and a.get_ylabel() == b.get_ylabel() == "$d/a$"
-    texts = _legend_texts(fig)
-    for k in ("0", "1", "2.5", "5"):
-        assert f"$a/R={k}$" in texts
-    assert {"curvature-first", "gravity-first"} <= set(texts)
-    # the failed triangle point is counted, the snapped rectangle point flagged
-    assert "(b) 1 not converged, omitted" in texts and "(a) snapped (1)" in texts
-    # omitted means omitted: the failed point is not among the plotted ones
-    n = len(figures.quality_settings("quick")["lengths"])
-    curves = [ln for ln in b.get_lines() if ln.get_marker() == "o"]
-    assert sorted(len(ln.get_xdata()) for ln in curves) == [n - 1, n, n, n]
-    assert 0.6 not in [ln for ln in curves if len(ln.get_xdata()) == n - 1][0].get_xdata()
-    assert sweep.computed == len(figures.fig2_points("quick"))
+def _lines(ax, prefix):
+    return [ln for ln in ax.get_lines() if (ln.get_gid() or "").startswith(prefix)]
 
 
-def test_points_match_the_grids(sweep):
-    n = len(figures.quality_settings("quick")["lengths"])
-    p2 = figures.fig2_points("quick")
-    p4 = figures.fig4_points("quick")
-    paper = figures.fig2_points("paper")
-    # rect+tri at a/R=0 (one path), rectangles both paths, triangles curvature-first
-    assert len(p2) == n * (2 + 3 * 2 + 3)
-    assert {p["hmax"] for p in p2} == {0.1}
-    assert {p["hmax"] for p in paper} == {0.03}
-    assert len(paper) == 47 * (2 + 3 * 2 + 3 * 2)
-    assert {p["tip_width"] for p in p4} == {0.0, 0.2, 0.4, 0.6, 0.8, 1.0}
-    gf = {p["tip_width"] for p in p4 if p["path"] == "gravity-first"}
-    assert gf == {0.6, 0.8, 1.0} and all(p["curvature"] == 2.5 for p in p4
-                                         if p["path"] == "gravity-first")
-    assert len({(p["length"], p["tip_width"], p["curvature"], p["path"]) for p in p2}) == len(p2)
+def _row_lines(ax, b, k):
+    tag = f"|b={b:g}|k={k:g}"
+    return {m: [ln for ln in ax.get_lines() if ln.get_gid() == m + tag]
+            for m in ("curvature_dominated", "gravity_dominated")}
 
 
-def test_drawing_twice_computes_nothing_twice(sweep, tmp_path):
-    figures.fig2("quick", data_dir=tmp_path, progress=False)
-    n = sweep.computed
-    assert n > 0
-    figures.fig2("quick", data_dir=tmp_path, progress=False)
-    figures.fig4("quick", data_dir=tmp_path, progress=False)
-    m = sweep.computed
-    figures.fig4("quick", data_dir=tmp_path, progress=False)
-    assert sweep.computed == m and m - n == len(figures.fig4_points("quick"))
-    # one table per figure and quality; fig5 reads fig2's
-    assert sweep.tables[0].endswith("fig2-quick.csv")
-    assert sweep.tables[-1].endswith("fig4-quick.csv")
+def _xs(lines):
+    return np.concatenate([np.asarray(ln.get_xdata(), float) for ln in lines])
 
 
-def test_select_filters_other_points_and_duplicates():
-    pts = [dict(length=1.0, tip_width=1.0, curvature=2.5, path="gravity-first", hmax=0.1)]
-    df = pd.DataFrame([
-        {**pts[0], "deflection": 0.1},
-        {**pts[0], "deflection": 0.2},                     # recomputed later: keep the last
-        {**pts[0], "hmax": 0.03, "deflection": 0.3},       # another mesh
-        {**pts[0], "path": "curvature-first", "deflection": 0.4},
-    ])
-    out = figures._select(df, pts)
-    assert out["deflection"].tolist() == [0.2]
+# -- points and caching -----------------------------------------------------------------------
+def test_points_are_the_issues_map_points():
+    keys = {foldmap._key(p) for c, bs in ISSUE_GRID.items()
+            for p in foldmap.map_points(bs, [c], lengths=(0.5, 3.0), hmax=0.1)}
+    quick = figures.map_grid_points("quick")
+    assert {foldmap._key(p) for p in quick} == keys and len(quick) == len(keys) == 49
+    for fn in (figures.fig2_points, figures.fig4_points, figures.fig5_points,
+               figures.fig6_points, figures.fig7_points):
+        assert {foldmap._key(p) for p in fn("quick")} <= keys
+        paper = fn("paper")
+        assert {foldmap._key(p) for p in paper} <= {foldmap._key(p)
+                                                    for p in figures.map_grid_points("paper")}
+        assert {(p["hmax"], p["step"]) for p in paper} == {(0.03, 0.05)}
+    assert {(p["curvature"], p["tip_width"]) for p in figures.fig2_points()} == {
+        (c, b) for c in (0.0, 1.0, 2.5, 5.0) for b in (0.0, 1.0)}
+    assert {(p["curvature"], p["tip_width"]) for p in figures.fig7_points()} == {
+        (c, b) for c in (1.0, 1.5, 2.0, 2.5, 3.5, 5.0) for b in (.5, .6, .7, .8, .9, 1.0)}
+    # paper quality: finer in both b/a and a/R
+    pg = figures.PAPER_GRID
+    assert len(pg) > len(figures.QUICK_GRID) and len(pg[2.5]) > len(figures.QUICK_GRID[2.5])
 
 
-class _FakeBranch:
-    def __init__(self, lengths, direction, tip, k):
-        L = np.sort(np.asarray(lengths, float))
-        if direction == "decreasing":
-            L = L[::-1]
-        self.lengths = L
-        up = (direction == "increasing") & (L < 1.4)
-        self.deflection = np.where(up | (L < 1.3), 0.0, 0.5) + 0.1 * L * (1 + tip) - 0.01 * k
-        self.converged = np.ones(L.size, bool)
-        self.converged[-1] = tip != 0.0 or k != 1.0  # one failed ribbon point
-        self.jumped = np.zeros(L.size, bool)
-        j = np.flatnonzero(np.diff(self.deflection) != np.diff(self.deflection).mean())
-        self.jumped[j[:1] + 1] = tip == 1.0 and k == 2.5
+def test_drawing_twice_computes_nothing_twice(compute, tmp_path, monkeypatch):
+    from skfem_sheet.reduced import maps
+
+    ribbon_calls = []
+
+    def fake_ribbon_map(c, lengths, tips, **kw):
+        ribbon_calls.append((c, len(tips)))
+        return [dict(curvature=c, tip_width=float(b), length=float(L), direction=dr,
+                     deflection=float(L) - 1.0, converged=True, stable=True, jumped=False)
+                for b in tips for dr in ("increasing", "decreasing") for L in lengths]
+
+    monkeypatch.setattr(maps, "ribbon_map", fake_ribbon_map)
+    kw = dict(data_dir=tmp_path, progress=False, workers=1)
+    figures.fig2("quick", **kw)
+    assert len(compute) == 8
+    figures.fig2("quick", **kw)
+    assert len(compute) == 8
+    figures.fig4("quick", **kw)
+    assert len(compute) == 8 + 8  # fig4's b/a = 0 and 1 rows are fig2's
+    figures.fig6("quick", **kw)
+    figures.fig7("quick", **kw)
+    n, nr = len(compute), len(ribbon_calls)
+    assert n == len(set(compute)) == 8 + 8 + 10 + 23 == 49  # the whole quick grid
+    for name in ("fig2", "fig4", "fig6", "fig7"):
+        figures.FIGURES[name]("quick", **kw)
+    assert len(compute) == n and len(ribbon_calls) == nr  # nothing computed twice
+    # one map table for all figures, holding every point once
+    table = pd.read_csv(tmp_path / "foldmap-quick.csv")
+    assert len(table) == n and table["key"].is_unique
+    assert (tmp_path / "fig6-quick-ribbon.csv").exists()
 
 
-def test_fig5_fe_from_fig2_table_and_cached_ribbon(sweep, tmp_path, monkeypatch):
+def test_fig5_fe_from_the_map_and_cached_ribbon(compute, tmp_path, monkeypatch):
     import skfem_sheet.reduced as reduced
 
     calls = []
 
+    class Branch:
+        def __init__(self, lengths, direction, tip, k):
+            L = np.sort(np.asarray(lengths, float))
+            L = L[::-1] if direction == "decreasing" else L
+            self.lengths = L
+            jump = (tip == 1.0) & (k == 2.5)
+            self.deflection = 0.1 * L + np.where(jump & (L > 1.38), 0.5, 0.0)
+            self.converged = np.ones(L.size, bool)
+            self.converged[-1] = tip != 0.0 or k != 1.0  # one failed ribbon point
+            self.jumped = np.zeros(L.size, bool)
+            if jump:
+                self.jumped[np.flatnonzero(np.abs(np.diff(self.deflection)) > 0.3)[:1] + 1] = True
+
     def fake_continuation(template, lengths, direction="increasing", **kw):
         calls.append((template.tip_width, template.curvature, direction))
-        return _FakeBranch(lengths, direction, template.tip_width, template.curvature)
+        return Branch(lengths, direction, template.tip_width, template.curvature)
 
     monkeypatch.setattr(reduced, "ribbon_continuation", fake_continuation)
-    figures.fig2("quick", data_dir=tmp_path, progress=False)
-    n = sweep.computed
+    figures.fig2("quick", data_dir=tmp_path, progress=False, workers=1)
+    n = len(compute)
     fig = figures.make_figure("fig5", "quick", out=str(tmp_path / "f5.png"),
-                              data_dir=tmp_path, progress=False)
-    assert sweep.computed == n  # FE points are fig2's
-    assert sweep.tables[-1].endswith("fig2-quick.csv")
+                              data_dir=tmp_path, progress=False, workers=1)
+    assert len(compute) == n  # FE rows are fig2's
     assert len(calls) == 8  # 2 shapes x 2 curvatures x 2 directions
-    figures.fig5("quick", data_dir=tmp_path, progress=False)
+    figures.fig5("quick", data_dir=tmp_path, progress=False, workers=1)
     assert len(calls) == 8  # cached
-    assert len(fig.axes) == 4
+    assert (tmp_path / "f5.png").read_bytes()[:8] == PNG_MAGIC
     assert [ax.get_xlabel() for ax in fig.axes] == ["", "", "$L/a$", "$L/a$"]
-    assert fig.axes[0].get_ylabel() == "$d/a$"
     texts = _legend_texts(fig)
-    assert {"FE, curvature-first", "FE, gravity-first", "ribbon, $L$ increasing",
+    assert {"FE, curvature-dominated", "FE, gravity-dominated", "ribbon, $L$ increasing",
             "ribbon, $L$ decreasing", "ribbon: 2 not converged, omitted"} <= set(texts)
-    # the ribbon branch is broken (NaN) at its jump
+    # (c) rectangle at a/R = 2.5 is bistable in the toy map: both FE branches and jumps
     ax_c = fig.axes[2]
-    dashed = [ln for ln in ax_c.get_lines() if ln.get_linestyle() == "--"]
-    assert any(np.isnan(ln.get_ydata().astype(float)).any() for ln in dashed)
+    lines = _row_lines(ax_c, 1.0, 2.5)
+    assert len(lines["curvature_dominated"]) == len(lines["gravity_dominated"]) == 1
+    assert len([t for t in ax_c.texts if (t.get_gid() or "").startswith("jump")]) == 2
+    dotted = [ln for ln in ax_c.get_lines() if ln.get_linestyle() == "--"
+              and ln.get_gid() is None]
+    assert any(np.isnan(ln.get_ydata().astype(float)).any() for ln in dotted)  # ribbon jump
 
 
-def test_fig3_one_colour_scale_and_cache(tmp_path, monkeypatch):
-    calls = []
+# -- drawing --------------------------------------------------------------------------------
+def test_fig2_branches_modes_and_failures(tmp_path):
+    grid = {0.0: [0.0, 1.0], 1.0: [0.0, 1.0], 2.5: [0.0, 1.0], 5.0: [0.0, 1.0]}
+    df = _table(grid, {(0.0, 5.0): dict(error="RuntimeError", message="boom",
+                                        curvature_dominated="", gravity_dominated="")})
+    # an unstable point on the rectangle's curvature-dominated branch at a/R = 2.5
+    i = df.index[(df.tip_width == 1.0) & (df.curvature == 2.5)][0]
+    c = json.loads(df.at[i, "curvature_dominated"])
+    c["lengths"].append(1.452)
+    c["deflection"].append(5.0)
+    c["stable"].append(False)
+    df.at[i, "curvature_dominated"] = json.dumps(c)
+    fig = figures.draw_fig2(df, "quick")
+    fig.savefig(tmp_path / "f2.png")
+    a, b = fig.axes
+    assert b.get_xlabel() == "$L/a$" and a.get_ylabel() == b.get_ylabel() == "$d/a$"
+    texts = _legend_texts(fig)
+    assert {f"$a/R={k}$" for k in ("0", "1", "2.5", "5")} <= set(texts)
+    assert {"curvature-dominated", "gravity-dominated", "jump at a fold ($L_1^*$, $L_0^*$)",
+            "1 map point failed, omitted"} <= set(texts)
+    # bistable rows (rectangles, a/R = 2.5 and 5): both branches, overlapping on [L0*, L1*]
+    for k in (2.5, 5.0):
+        L0, L1 = _folds(1.0, k)
+        lines = _row_lines(a, 1.0, k)
+        assert len(lines["curvature_dominated"]) == len(lines["gravity_dominated"]) == 1
+        xc, xg = _xs(lines["curvature_dominated"]), _xs(lines["gravity_dominated"])
+        assert xc.max() == pytest.approx(L1, abs=0.005)
+        assert xg.min() == pytest.approx(L0, abs=0.005)
+        jumps = [t for t in a.texts if (t.get_gid() or "").endswith(f"|b=1|k={k:g}")]
+        assert sorted(t.get_gid().split("|")[0] for t in jumps) == ["jump-L0", "jump-L1"]
+        down = [t for t in jumps if t.get_gid().startswith("jump-L1")][0]
+        assert down.xy[1] > down.xyann[1]  # at L1* the tip drops onto the drooped branch
+    # the unstable point is not drawn
+    assert 1.452 not in _xs(_row_lines(a, 1.0, 2.5)["curvature_dominated"])
+    # not bistable (a/R = 1): one curve, solid below the transition, dashed from it on
+    for ax, tip in ((a, 1.0), (b, 0.0)):
+        lines = _row_lines(ax, tip, 1.0)
+        xc, xg = _xs(lines["curvature_dominated"]), _xs(lines["gravity_dominated"])
+        assert xc.max() < 1.1 <= xg[1] and xg[0] == xc.max()  # joined, no overlap
+    # a flat clamp has no curvature-dominated mode; the failed row draws nothing
+    assert not _row_lines(a, 1.0, 0.0)["curvature_dominated"]
+    assert len(_row_lines(a, 1.0, 0.0)["gravity_dominated"]) == 1
+    assert not any(_row_lines(b, 0.0, 5.0).values())
+    assert not [t for t in b.texts if (t.get_gid() or "").startswith("jump")]
+    assert a.get_lines()[0].get_linestyle() in ("-", "--")
 
-    def fake_surface(sheet, path, hmax):
-        calls.append((sheet.tip_width, path))
-        x, y = np.meshgrid(np.linspace(0, sheet.length, 4), np.linspace(-0.5, 0.5, 3))
-        X = np.c_[x.ravel(), y.ravel() * (1 - (1 - sheet.tip_width) * x.ravel() / sheet.length),
-                  -0.2 * x.ravel()]
-        tri = np.array([[0, 1, 4], [0, 4, 3], [4, 5, 8], [4, 8, 7]])
-        psi = np.full(len(tri), 0.01 * (1 + sheet.tip_width))
-        return {"X": X, "tri": tri, "psi": psi, "deflection": 0.26, "converged": True,
-                "message": "", "snapped": False, "hmax": float(hmax)}
 
-    monkeypatch.setattr(figures, "_solve_surface", fake_surface)
-    fig = figures.make_figure("fig3", "quick", out=str(tmp_path / "f3.png"),
-                              data_dir=tmp_path, progress=False)
-    assert len(calls) == 6 and {p for _, p in calls} == {"curvature-first", "gravity-first"}
-    assert sorted(b for b, _ in calls) == [0.0, 0.4, 0.6, 0.8, 1.0, 1.0]
-    assert (tmp_path / "f3.png").read_bytes()[:8] == PNG_MAGIC
-    sheets = [ax for ax in fig.axes if ax.name == "3d"]
-    assert len(sheets) == 6 and len(fig.axes) == 7  # six sheets + one colour bar
-    assert fig.axes[-1].get_ylabel().startswith(r"$\psi/\mu$")
-    assert all(ax.get_xlabel() == "$x/a$" and ax.get_zlabel() == "$z/a$" for ax in sheets)
-    # one colour scale: the colour bar spans 0 .. the 99th percentile of all sheets
-    assert fig.axes[-1].get_ylim()[1] == pytest.approx(0.02, rel=1e-9)
-    assert sheets[0].get_title().startswith("(d) rectangle, gravity-dominated")
-    figures.fig3("quick", data_dir=tmp_path, progress=False)
-    assert len(calls) == 6  # read from the npz cache
-
-
-def test_fig4_axes_insets_legend(sweep, tmp_path):
-    fig = figures.fig4("quick", data_dir=tmp_path, progress=False)
+def test_fig4_insets_against_area():
+    df = _table({0.0: [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], 2.5: [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]})
+    fig = figures.draw_fig4(df, "quick")
     axes = fig.axes + [c for ax in fig.axes for c in ax.child_axes]
     labels = [(ax.get_xlabel(), ax.get_ylabel()) for ax in axes]
-    assert labels.count(("$A/a^2$", "$d/a$")) == 2  # two insets against the area
+    assert labels.count(("$A/a^2$", "$d/a$")) == 2
     assert ("$L/a$", "$d/a$") in labels
     texts = _legend_texts(fig)
     assert {f"$b/a={b:g}$" for b in (0, 0.2, 0.4, 0.6, 0.8, 1)} <= set(texts)
-    assert "gravity-first" in texts
+    assert "gravity-dominated" in texts
+    # insets: the same curves against A/a^2 = (1 + b/a) L / 2
+    main_b, inset_b = fig.axes[1], fig.axes[1].child_axes[0]
+    for b in (0.0, 0.8):
+        for mode in ("curvature_dominated", "gravity_dominated"):
+            m, i = _row_lines(main_b, b, 2.5)[mode], _row_lines(inset_b, b, 2.5)[mode]
+            assert len(m) == len(i) == 1
+            np.testing.assert_allclose(i[0].get_xdata(), 0.5 * (1 + b) * m[0].get_xdata())
+    # b/a = 0.8 is bistable at a/R = 2.5 in the toy map, b/a = 0.6 is not
+    assert len(_xs(_row_lines(main_b, 0.8, 2.5)["gravity_dominated"])) > 0
+    assert _xs(_row_lines(main_b, 0.8, 2.5)["curvature_dominated"]).max() > \
+        _xs(_row_lines(main_b, 0.8, 2.5)["gravity_dominated"]).min()
+    assert _xs(_row_lines(main_b, 0.6, 2.5)["curvature_dominated"]).max() <= \
+        _xs(_row_lines(main_b, 0.6, 2.5)["gravity_dominated"]).min()
 
 
+def _ribbon_rows(curvatures=(2.5, 5.0)):
+    rows = []
+    for c in curvatures:
+        for b in np.linspace(0, 1, 6):
+            for dr in ("increasing", "decreasing"):
+                for L in np.round(np.arange(0.5, 3.0 + 1e-9, 0.1), 6):
+                    up = dr == "increasing" and b > 0.5 and L > 1.0 + 0.1 * c
+                    rows.append(dict(curvature=c, tip_width=b, length=L, direction=dr,
+                                     deflection=L + up, converged=True, stable=True,
+                                     jumped=bool(up and L < 1.05 + 0.1 * c + 0.1)))
+    return pd.DataFrame(rows)
+
+
+def test_fig6_modes_boundary_and_ribbon_jumps(tmp_path):
+    grid = {2.5: [0, .2, .4, .5, .6, .7, .8, .9, 1], 5.0: [0, .2, .4, .5, .6, .7, .8, .9, 1]}
+    df = _table(grid)
+    Lm = np.round(np.arange(0.6, 2.8 + 1e-9, 0.2), 6)
+    fig = figures.draw_fig6(df, _ribbon_rows(), "quick", mode_lengths=Lm)
+    fig.savefig(tmp_path / "f6.png")
+    ax_a, ax_b, cax = fig.axes
+    assert ax_b.get_xlabel() == "$L/a$" and ax_a.get_ylabel() == "$b/a$"
+    assert cax.get_ylabel() == "$d/a$ (ribbon model)"
+    crit = foldmap.critical_tip_width(df)
+    for ax, c in ((ax_a, 2.5), (ax_b, 5.0)):
+        rows = df[df.curvature == c]
+        cd = {(L, b) for _, r in rows.iterrows() for L, m in zip(Lm, foldmap.modes(r, Lm)[0])
+              if m for b in [r.tip_width]}
+        gd = {(L, b) for _, r in rows.iterrows() for L, m in zip(Lm, foldmap.modes(r, Lm)[1])
+              if m for b in [r.tip_width]}
+        (dia,) = _lines(ax, "fe-curvature")
+        (sq,) = _lines(ax, "fe-gravity")
+        assert dia.get_marker() == "D" and sq.get_marker() == "s"
+        assert set(zip(dia.get_xdata(), dia.get_ydata())) == cd
+        assert set(zip(sq.get_xdata(), sq.get_ydata())) == gd
+        both = cd & gd
+        assert both and all(_folds(b, c) is not None for _, b in both)  # only where bistable
+        # the solid boundary passes through (L0*, b) and (L1*, b), closed at (b/a)*
+        (bd,) = _lines(ax, "fe-folds")
+        pts = set(zip(np.round(bd.get_xdata(), 9), np.round(bd.get_ydata(), 9)))
+        for b in (0.7, 0.8, 0.9, 1.0):
+            L0, L1 = _folds(b, c)
+            assert (round(L0, 9), round(b, 9)) in pts and (round(L1, 9), round(b, 9)) in pts
+        assert min(bd.get_ydata()) == pytest.approx(crit[c][0])
+        assert 0.6 <= crit[c][0] <= 0.7
+        assert not np.isnan(bd.get_xdata()).any()  # one closed curve
+        # the ribbon model's jumps (L increasing), dashed
+        (jl,) = _lines(ax, "ribbon-jump")
+        assert jl.get_linestyle() == "--"
+        assert np.nanmin(jl.get_xdata()) == pytest.approx(1.0 + 0.1 * c + 0.05, abs=0.051)
+    texts = _legend_texts(fig)
+    assert {"FE: curvature-dominated mode", "FE: gravity-dominated mode",
+            "ribbon: jump ($L$ increasing)"} <= set(texts)
+
+
+def test_fig6_ribbon_map_cached(tmp_path, monkeypatch):
+    from skfem_sheet.reduced import maps
+
+    calls = []
+
+    def fake(c, lengths, tips, **kw):
+        calls.append(len(tips))
+        return [
+            dict(curvature=c, tip_width=float(b), length=float(L), direction=dr,
+                 deflection=0.1 * L, converged=True, stable=True, jumped=False)
+            for b in tips for dr in ("increasing", "decreasing") for L in lengths]
+
+    monkeypatch.setattr(maps, "ribbon_map", fake)
+    df = figures.fig6_ribbon("quick", tmp_path, progress=False, workers=2)
+    s = figures.quality_settings("quick")
+    assert sum(calls) == 2 * s["fig6_ribbon_tips"]  # every shape of both curvatures once
+    assert len(df) == 2 * 2 * 26 * s["fig6_ribbon_tips"]
+    again = figures.fig6_ribbon("quick", tmp_path, progress=False)
+    assert sum(calls) == 2 * s["fig6_ribbon_tips"] and len(again) == len(df)
+
+
+def test_fig7_surfaces_only_where_bistable(tmp_path):
+    grid = {c: [.5, .6, .7, .8, .9, 1.0] for c in (1.0, 1.5, 2.0, 2.5, 3.5, 5.0)}
+    df = _table(grid)
+    fig = figures.draw_fig7(df, "quick")
+    fig.savefig(tmp_path / "f7.png")
+    ax = fig.axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()) == ("$b/a$", "$a/R$", "$L/a$")
+    assert "standout" in fig._suptitle.get_text() and "pop-up" in fig._suptitle.get_text()
+    region = figures.bistable_region(df)
+    nodes, tris = figures._region_mesh(region)
+    bistable = {(b, c) for c, bs in grid.items() for b in bs if _folds(b, c) is not None}
+    critical = {(round(b, 9), round(c, 9)) for b, c, _ in region["critical"]}
+    # every node is a bistable (b, a/R) or a point of the critical curve, and every
+    # bistable row is a node: no surface over a row that is not bistable
+    node_set = {(round(b, 9), round(c, 9)) for b, c, *_ in nodes}
+    assert node_set == {(round(b, 9), round(c, 9)) for b, c in bistable} | critical
+    for b, c, L0, L1 in nodes:
+        if (round(b, 9), round(c, 9)) in critical:
+            assert L0 == L1
+        else:
+            assert (L0, L1) == pytest.approx(_folds(b, c))
+    assert len(tris) >= len(nodes) - 2
+    # the critical curve of the toy map: (b/a)* in (0.6, 0.7) at a/R >= 2
+    assert all(0.6 <= b <= 0.7 for b, c, _ in region["critical"] if c >= 2.0)
+    surfaces = {c.get_gid() for c in ax.collections if c.get_gid()}
+    assert {"surface-L1", "surface-L0"} <= surfaces
+    # (b): one pair of curves per bistable a/R
+    ax2 = fig.axes[1]
+    assert ax2.get_xlabel() == "$b/a$" and ax2.get_ylabel() == "$L/a$"
+    assert {t for t in _legend_texts(fig)} >= {"$a/R=2$", "$a/R=2.5$", "$a/R=3.5$", "$a/R=5$"}
+    for c in (2.0, 5.0):
+        (l1,) = [ln for ln in ax2.get_lines() if ln.get_gid() == f"L1|k={c:g}"]
+        (l0,) = [ln for ln in ax2.get_lines() if ln.get_gid() == f"L0|k={c:g}"]
+        assert l1.get_xdata()[0] == l0.get_xdata()[0] and l1.get_ydata()[0] == l0.get_ydata()[0]
+
+
+def test_fig7_without_bistability_draws_no_surface():
+    fig = figures.draw_fig7(_table({1.0: [.5, .6, .7, .8, .9, 1.0]}), "quick")
+    assert not [c for c in fig.axes[0].collections if c.get_gid()]
+
+
+# -- the command line -----------------------------------------------------------------------
 def test_cli_rejects_bad_name_and_quality(capsys, tmp_path):
     for argv in (["figure", "fig9"], ["figure", "fig2", "--quality", "draft"]):
         with pytest.raises(SystemExit) as err:
@@ -252,24 +434,32 @@ def test_cli_rejects_bad_name_and_quality(capsys, tmp_path):
     assert capsys.readouterr().err.count("\n") == 1
 
 
-def test_cli_writes_png(sweep, tmp_path, capsys):
+def test_cli_draws_from_the_cached_map(compute, tmp_path, capsys):
+    d = tmp_path / "d"
+    figures.fig7("quick", data_dir=d, progress=False, workers=1)
+    n = len(compute)
     out = tmp_path / "f.png"
-    assert main(["figure", "fig2", "--out", str(out), "--data-dir", str(tmp_path / "d"),
-                 "--quiet"]) == 0
+    assert main(["figure", "fig7", "--out", str(out), "--data-dir", str(d), "--quiet"]) == 0
+    assert len(compute) == n
     assert out.read_bytes()[:8] == PNG_MAGIC
-    assert (tmp_path / "d" / "fig2-quick.csv").exists()
+    assert (d / "foldmap-quick.csv").exists()
     assert "wrote" in capsys.readouterr().out
 
 
-def test_with_the_real_sweep(tmp_path):
-    """The real sweep's table (dtypes, NA) goes through selection and drawing; cached."""
-    sweep_mod = pytest.importorskip("skfem_sheet.sweep")
-    pts = sweep_mod.grid(length=0.3, curvature=[0.0, 2.5], hmax=0.2)
+def test_with_a_real_map_point(tmp_path):
+    """A real (tiny) fold-map point goes through the table, the drawing and the cache."""
+    pts = foldmap.map_points([0.0], [2.5], lengths=(0.8, 1.0), hmax=0.2, step=0.2)
     table = str(tmp_path / "t.csv")
-    df = figures._sweep_table(pts, table, progress=False, workers=1)
-    assert len(df) == len(pts) and df["converged"].all()
+    df = foldmap.fold_map(pts, table=table, workers=1, progress=False)
+    assert bool(df.converged[0]) and not bool(df.bistable[0])
     fig = figures.draw_fig2(df)
-    assert "$a/R=2.5$" in _legend_texts(fig)
-    again = sweep_mod.run_sweep(pts, table=table, workers=1, progress=False)
-    assert again.attrs["sweep"]["new"] == 0
-    assert figures._select(again, pts[:1])["deflection"].tolist() == [df["deflection"][0]]
+    lines = _row_lines(fig.axes[1], 0.0, 2.5)
+    drawn = [ln for v in lines.values() for ln in v]
+    assert len(drawn) == 1  # a triangle: one curve
+    # two points only: no transition length, so the gravity-dominated curve (followed
+    # down from L/a = 1 on its own stretched mesh) is drawn
+    L, d, _ = foldmap.branch_curve(df.iloc[0], "gravity_dominated")
+    np.testing.assert_allclose(drawn[0].get_ydata(), d)
+    again = foldmap.fold_map(pts, table=table, workers=1, progress=False)
+    assert again.attrs["fold_map"]["new"] == 0
+    assert again["curvature_dominated"][0] == df["curvature_dominated"][0]
