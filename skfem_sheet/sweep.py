@@ -37,7 +37,11 @@ and any other exception raised while solving one point are rows with
 Columns of the table (:data:`COLUMNS`): the parameters, then ``deflection``
 (d/a, positive down), ``converged``, ``message``, ``branch``
 ("curvature-dominated" or "gravity-dominated": ``Result.branch`` when the solver
-provides it, else the load path's own branch, switched when the path snapped),
+provides it, else the load path's own branch, switched when the path snapped --
+a label of the load path, not a classification of the shape: a long sheet whose
+curvature-first path droops gradually, without a detected snap, keeps the label
+"curvature-dominated"; for the physical modes use the fold map,
+:func:`skfem_sheet.foldmap.modes`),
 ``stable`` (``Result.stable``, empty when unknown), ``snapped``,
 ``newton_iterations``, ``load_steps``, ``wall_time_s``, ``assembly_s``,
 ``linear_solve_s``, ``dofs``, ``energy``, ``volume_change``, ``version``,
