@@ -292,6 +292,13 @@ def branch_curve(row, which: str = "curvature_dominated"):
     ``which`` is ``"curvature_dominated"`` (followed with increasing L from
     ``length_min``) or ``"gravity_dominated"`` (decreasing L from
     ``length_max``); points are sorted by length.
+
+    Examples
+    --------
+    >>> row = {"curvature_dominated": '{"lengths": [0.6, 0.5], "deflection": [0.2, 0.1], '
+    ...                               '"stable": [true, true]}'}
+    >>> [a.tolist() for a in branch_curve(row)]
+    [[0.5, 0.6], [0.1, 0.2], [True, True]]
     """
     if which not in ("curvature_dominated", "gravity_dominated"):
         raise ParameterError("which must be 'curvature_dominated' or 'gravity_dominated', "
@@ -314,6 +321,12 @@ def transition_length(row) -> float | None:
     transition is continuous) the middle of the steepest interval of
     ``d(L)`` on the curvature-dominated branch; None for a flat curve
     (``a/R = 0``, where there is no curvature-dominated mode to lose).
+
+    Examples
+    --------
+    >>> transition_length({"bistable": False, "standout_length": float("nan"),
+    ...                    "popup_length": 1.24, "curvature": 2.5})
+    1.24
     """
     if bool(row["bistable"]):
         return None
