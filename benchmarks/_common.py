@@ -4,8 +4,10 @@ Three groups:
 
 - analysis of a mesh sequence: :func:`richardson` (three-point Richardson
   extrapolation, constant or varying refinement ratio), :func:`power_law_fit`
-  (least-squares ``d = d_inf + C h^p`` through any number of points) and
-  :func:`loglog_slope` (observed order from ``log|d - d_inf|`` against ``log h``);
+  (least-squares ``d = d_inf + C h^p`` through any number of points),
+  :func:`loglog_slope` (observed order from ``log|d - d_inf|`` against ``log h``),
+  :func:`local_orders` (the order of every three consecutive meshes) and
+  :func:`nested_family` (the meshes of a nested refinement study);
 - isolated solves: :func:`run_isolated` runs one ``solve`` in a fresh Python
   process (so that its peak memory, read from ``/proc/self/status`` VmHWM inside
   that process, belongs to that solve alone) and returns a JSON-ready record;
@@ -38,7 +40,8 @@ except ImportError:  # run from a checkout without installing: use the repositor
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     import skfem_sheet  # noqa: F401
 
-__all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence",
+__all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "local_orders",
+           "nested_family",
            "run_isolated", "RunStore", "code_version", "available_backends", "solve_supports",
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
@@ -261,6 +264,63 @@ def analyse_sequence(h, d):
     return out
 
 
+def local_orders(h, d):
+    """Richardson order of every three consecutive meshes (coarse to fine).
+
+    The order of the triple ``k, k+1, k+2`` is that of :func:`richardson`
+    (``log((d_k - d_k+1) / (d_k+1 - d_k+2)) / log r`` for a constant ratio
+    ``r``); ``None`` where the triple is not in a converging regime
+    (non-monotone, differences not shrinking).  Orders that settle as the mesh
+    is refined say that the sequence is in its asymptotic range.
+
+    Returns
+    -------
+    list of (float or None), length ``len(h) - 2``
+
+    Examples
+    --------
+    >>> h = [0.4, 0.2, 0.1, 0.05]
+    >>> [round(p, 9) for p in local_orders(h, [1 + x ** 2 for x in h])]
+    [2.0, 2.0]
+    >>> local_orders([0.4, 0.2, 0.1], [1.0, 1.1, 1.05])
+    [None]
+    """
+    out = []
+    for k in range(len(h) - 2):
+        try:
+            out.append(richardson(h[k:k + 3], d[k:k + 3])[1])
+        except ValueError:   # not converging on this triple: no order to report
+            out.append(None)
+    return out
+
+
+def nested_family(base_hmax, base_layers, refinements):
+    """The meshes of a nested family: ``refine = 0 .. refinements`` of one base mesh.
+
+    Refinement ``k`` halves every edge of the base mesh ``k`` times in all
+    three directions (``solve(..., hmax=base_hmax, layers=base_layers,
+    refine=k)``): edge size ``base_hmax / 2**k``, ``base_layers * 2**k`` layers.
+
+    Returns
+    -------
+    list of (h, layers, refine)
+        ``h`` is the effective mesh size ``base_hmax / 2**k`` (the abscissa of
+        the convergence analysis; the refinement ratio is exactly 2).
+
+    Examples
+    --------
+    >>> nested_family(0.16, 2, 2)
+    [(0.16, 2, 0), (0.08, 4, 1), (0.04, 8, 2)]
+    """
+    if not (isinstance(refinements, int) and refinements >= 0):
+        raise ValueError(f"refinements must be a non-negative integer, got {refinements!r}")
+    if not (isinstance(base_layers, int) and base_layers >= 1):
+        raise ValueError(f"base layers must be a positive integer, got {base_layers!r}")
+    if not base_hmax > 0:
+        raise ValueError(f"base hmax must be positive, got {base_hmax!r}")
+    return [(base_hmax / 2 ** k, base_layers * 2 ** k, k) for k in range(refinements + 1)]
+
+
 # ---------------------------------------------------------------------------
 # Solves in fresh processes
 # ---------------------------------------------------------------------------
@@ -306,10 +366,11 @@ def solve_default(name):
     return None if p is None or p.default is inspect.Parameter.empty else p.default
 
 
-def estimate_unknowns(sheet_kw, hmax, layers=None, symmetric=None):
+def estimate_unknowns(sheet_kw, hmax, layers=None, symmetric=None, refine=0):
     """Estimated number of unknowns of a solve, or None if the estimator is gone.
 
-    ``symmetric=None`` means the solver's default.  Uses
+    ``symmetric=None`` means the solver's default; ``refine`` the nested
+    refinements of the mesh (``solve(..., refine=)``).  Uses
     ``skfem_sheet.mesh.estimate_dofs`` (not public API: only to skip runs that
     are too big, so a missing or changed helper just disables the check).
     """
@@ -325,6 +386,10 @@ def estimate_unknowns(sheet_kw, hmax, layers=None, symmetric=None):
         kw["half"] = symmetric
     elif symmetric:
         return None   # an estimator that does not know the half mesh: no estimate
+    if refine:
+        if "refine" not in inspect.signature(estimate_dofs).parameters:
+            return None   # an estimator that does not know refinement: no estimate
+        kw["refine"] = refine
     return int(estimate_dofs(Sheet(**sheet_kw), hmax, layers, **kw))
 
 
@@ -379,7 +444,7 @@ def _child(spec_json, out_path):
         kw = dict(path=spec["path"], hmax=spec["hmax"], layers=spec.get("layers"),
                   solver=spec.get("solver", "auto"), on_failure="return",
                   progress=bool(spec.get("progress", False)))
-        for opt in ("quadrature_order", "symmetric"):
+        for opt in ("quadrature_order", "symmetric", "refine"):
             if spec.get(opt) is not None:
                 kw[opt] = spec[opt]
         rss0 = _peak_rss_bytes()
@@ -427,7 +492,8 @@ def run_isolated(spec, timeout=None, threads=None, verbose=False):
     ----------
     spec : dict
         ``sheet`` (keyword arguments of ``Sheet``), ``path``, ``hmax`` and
-        optionally ``layers``, ``solver``, ``quadrature_order``, ``symmetric``.
+        optionally ``layers``, ``solver``, ``quadrature_order``, ``symmetric``,
+        ``refine``.
     timeout : float, optional
         Seconds after which the child is killed (status ``"timeout"``).
     threads : int, optional
@@ -505,6 +571,8 @@ class RunStore:
                 raise SystemExit(f"{path} holds a {old.get('benchmark')!r} benchmark, "
                                  f"not {benchmark!r}: choose another --json file")
             self.doc["runs"] = old.get("runs", [])
+            if "machine" in old:   # where the recorded runs ran, until new ones run
+                self.doc["machine"] = old["machine"]
         self._by_key = {spec_key(r["spec"]): r for r in self.doc["runs"]}
 
     def get(self, spec):

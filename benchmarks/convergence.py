@@ -1,30 +1,43 @@
 """Mesh convergence of the tip deflection (issue 3; the paper's supplement Fig. S1).
 
-    python benchmarks/convergence.py [--family 0.12:2,0.08:3,0.06:4,0.04:6,0.03:8]
-        [--check-hmax 0.03] [--solver auto] [--json convergence.json]
-        [--png convergence.png] [--quick] [--force]
+    python benchmarks/convergence.py [--nested] [--base-hmax 0.16] [--base-layers 2]
+        [--refinements 2] [--check-hmax 0.03] [--solver auto]
+        [--json convergence.json] [--png convergence.png] [--quick] [--dry-run] [--force]
+    python benchmarks/convergence.py --remesh [--family 0.12:2,0.08:3,0.06:4,0.04:6,0.03:8] ...
 
-Case (selectable): rectangle, L/a = 1.8, a/R = 5, curvature-first.  The
-family of meshes is refined in all three directions by the same factor: the
-default keeps hmax / (layer thickness) = 8, so the meshes are geometrically
-similar (hmax = 0.24 h / layers ... in units of a: hmax 0.12, 0.08, 0.06,
-0.04, 0.03 with 2, 3, 4, 6, 8 layers; ratios 1.5 and 1.33 alternate, which the
-Richardson formula for varying ratios handles).  The finest mesh is about 250k
-unknowns with the default mirror-symmetric half (twice that for the whole
-sheet).  ``--family 0.12:2,0.06:4,0.03:8`` is a constant-ratio (r = 2)
-alternative.  Reported:
+Case (selectable): rectangle, L/a = 1.8, a/R = 5, curvature-first, the
+mirror-symmetric half model (the default of ``solve``).
+
+``--nested`` (default): one base mesh (``--base-hmax``, ``--base-layers``)
+and its nested refinements ``refine = 0 .. K`` (``solve(..., refine=k)``):
+every edge halved k times in all three directions (plan triangles split into
+four at the edge midpoints, twice the layers), so the vertex sets are nested,
+the meshes are geometrically similar and the refinement ratio is exactly 2.
+Default: hmax 0.16 / 0.08 / 0.04 with 2 / 4 / 8 layers (the finest is about
+190k unknowns).  Unrelated unstructured meshes (``--remesh``) add
+mesh-to-mesh noise of the size of the discretisation error, which a nested
+family does not have.
+
+``--remesh``: the previous study, a fresh gmsh triangulation per mesh, the
+family given as ``hmax:layers`` pairs (default 0.12:2 ... 0.03:8, constant
+hmax / layer thickness; varying ratios are handled by the Richardson formula).
+
+Reported:
 
 - d/a per mesh, unknowns, wall time, Newton iterations, peak memory;
-- the Richardson extrapolated value from the last three meshes and the
-  observed order, the log-log least-squares slope of |d - d_inf| against hmax
-  over the last three meshes (= the Richardson order) and over all of them;
+- the Richardson extrapolated value from the three finest meshes, the observed
+  order (three-point Richardson ``p = log2((d1 - d2)/(d2 - d3))`` for ratio 2,
+  and the log-log least-squares slope of ``|d - d_inf|`` against h), the
+  order of every consecutive triple, and with four or more meshes the slope
+  and a power-law fit over all of them;
 - the error of every mesh against the extrapolated value, and of the default
-  setting (``--check-hmax``, default layers) - the paper's claim is that
-  hmax = 0.03 is within 1% and that the order is about 2.
+  setting (``--check-hmax``, default 0.03 with the default 2 layers,
+  unrefined): the paper's claims are an order of about 2 and hmax = 0.03
+  within 1%.
 
 Each solve runs in a fresh process (peak memory per solve).  The JSON file is
 rewritten after every solve; a rerun skips finished solves (``--force`` redoes
-them).  A PNG plot shows d against hmax and the log-log error with the fitted
+them).  A PNG plot shows d against h and the log-log error with the fitted
 slope.
 """
 import argparse
@@ -34,38 +47,42 @@ import sys
 from tqdm.auto import tqdm
 
 from _common import (add_run_options, analyse_sequence, estimate_unknowns, fmt,
-                     interrupted, machine_info, open_store, parse_family, run_isolated,
-                     warn_if_busy)
+                     interrupted, local_orders, machine_info, nested_family, open_store,
+                     parse_family, run_isolated, warn_if_busy)
 
 DEFAULT_FAMILY = "0.12:2,0.08:3,0.06:4,0.04:6,0.03:8"
 QUICK_FAMILY = "0.2:2,0.14:2,0.1:2"
+DEFAULT_BASE_HMAX, DEFAULT_BASE_LAYERS, DEFAULT_REFINEMENTS = 0.16, 2, 2
+QUICK_BASE_HMAX = 0.5           # quick nested run: hmax 0.5 / 0.25 / 0.125, a few thousand dofs
+DEFAULT_CHECK_HMAX, QUICK_CHECK_HMAX = 0.03, 0.25
 TARGET_ORDER = 1.8
 TARGET_ERROR = 0.01
 
 
-def plot(png, family_runs, check_run, analysis, case_label):
+def plot(png, family_runs, check_run, analysis, case_label, nested):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
-    h = np.array([r["spec"]["hmax"] for r in family_runs])
+    h = np.array([r["h"] for r in family_runs])
     d = np.array([r["deflection"] for r in family_runs])
     d_inf = analysis["extrapolated"]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
-    ax1.plot(h, d, "o-", label="refined in 3 directions")
+    ax1.plot(h, d, "o-", label="nested refinement (ratio 2)" if nested
+             else "remeshed, refined in 3 directions")
     for r in family_runs:
-        ax1.annotate(f"{r['layers']} layers", (r["spec"]["hmax"], r["deflection"]),
+        ax1.annotate(f"{r['layers']} layers", (r["h"], r["deflection"]),
                      textcoords="offset points", xytext=(4, 4), fontsize=7)
     if check_run is not None:
-        ax1.plot([check_run["spec"]["hmax"]], [check_run["deflection"]], "s",
-                 label=f"default ({check_run['layers']} layers)")
+        ax1.plot([check_run["h"]], [check_run["deflection"]], "s",
+                 label=f"default hmax {check_run['h']:g} ({check_run['layers']} layers)")
     if d_inf is not None:
-        ax1.axhline(d_inf, color="k", ls="--", lw=1, label=f"extrapolated {d_inf:.5f}")
+        ax1.axhline(d_inf, color="k", ls="--", lw=1, label=f"extrapolated {d_inf:.6f}")
         ax1.axhspan(d_inf * (1 - TARGET_ERROR), d_inf * (1 + TARGET_ERROR), color="0.9",
                     label="±1%")
-    ax1.set_xlabel("hmax / a")
+    ax1.set_xlabel("h / a  (hmax / 2^refine)" if nested else "hmax / a")
     ax1.set_ylabel("d / a")
     ax1.set_xlim(left=0)
     ax1.set_title(case_label, fontsize=9)
@@ -73,22 +90,28 @@ def plot(png, family_runs, check_run, analysis, case_label):
     if d_inf is not None:
         err = np.abs(d - d_inf) / abs(d_inf)
         ok = err > 0
-        ax2.loglog(h[ok], err[ok], "o", label="|d - d_inf| / d_inf")
+        ax2.loglog(h[ok], err[ok], "o", label="|d - d_inf| / |d_inf|")
         p = analysis["observed_order"]
         hh = np.array([h.min() * 0.9, h.max() * 1.1])
-        last = -1
-        ax2.loglog(hh, err[last] * (hh / h[last]) ** p, "k--", lw=1,
-                   label=f"slope {p:.2f} (last three)")
+        ax2.loglog(hh, err[-1] * (hh / h[-1]) ** p, "k--", lw=1,
+                   label=f"slope {p:.2f} (three finest)")
         if check_run is not None and check_run["deflection"] != d_inf:
-            ax2.loglog([check_run["spec"]["hmax"]],
-                       [abs(check_run["deflection"] / d_inf - 1)], "s", label="default")
+            ax2.loglog([check_run["h"]], [abs(check_run["deflection"] / d_inf - 1)], "s",
+                       label="default setting")
         ax2.axhline(TARGET_ERROR, color="r", lw=0.8, ls=":", label="1%")
-        ax2.set_xlabel("hmax / a")
+        ax2.set_xlabel(ax1.get_xlabel())
         ax2.set_ylabel("relative error")
         ax2.legend(fontsize=7)
-    else:
-        ax2.text(0.5, 0.5, "no extrapolation\n(non-monotone or too few meshes)",
-                 ha="center", va="center", transform=ax2.transAxes)
+    elif len(d) >= 2:
+        # no limit to measure errors against: show the successive differences,
+        # which need none (filled: d decreases on refinement, open: it increases)
+        diff = d[:-1] - d[1:]
+        for hk, dk in zip(h[1:], diff):
+            ax2.loglog([hk], [abs(dk) / abs(d[-1])], "o", color="C0",
+                       mfc="C0" if dk > 0 else "none")
+        ax2.set_title("no extrapolation (non-monotone or too few meshes)", fontsize=9)
+        ax2.set_xlabel(ax1.get_xlabel() + ", finer mesh of the pair")
+        ax2.set_ylabel("|d(h) - d(h/r)| / |d_finest|  (open: d increases)")
     fig.tight_layout()
     fig.savefig(png, dpi=130)
     plt.close(fig)
@@ -101,122 +124,184 @@ def main(argv=None):
     ap.add_argument("--curvature", type=float, default=5.0, help="a/R (default 5)")
     ap.add_argument("--path", default="curvature-first",
                     choices=("curvature-first", "gravity-first"))
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--nested", dest="mode", action="store_const", const="nested",
+                      help="nested refinements of one base mesh (default)")
+    mode.add_argument("--remesh", dest="mode", action="store_const", const="remesh",
+                      help="a fresh triangulation per mesh (--family)")
+    ap.set_defaults(mode="nested")
+    ap.add_argument("--base-hmax", type=float, default=None,
+                    help=f"--nested: hmax of the base mesh (default {DEFAULT_BASE_HMAX:g})")
+    ap.add_argument("--base-layers", type=int, default=DEFAULT_BASE_LAYERS,
+                    help=f"--nested: layers of the base mesh (default {DEFAULT_BASE_LAYERS})")
+    ap.add_argument("--refinements", type=int, default=DEFAULT_REFINEMENTS,
+                    help=f"--nested: refine = 0 .. K (default K = {DEFAULT_REFINEMENTS}; "
+                         "at least 2)")
     ap.add_argument("--family", default=None,
-                    help=f"meshes as hmax:layers,... coarse to fine (default {DEFAULT_FAMILY})")
+                    help=f"--remesh: meshes as hmax:layers,... coarse to fine "
+                         f"(default {DEFAULT_FAMILY})")
     ap.add_argument("--check-hmax", type=float, default=None,
-                    help="the default setting compared with the extrapolated value "
-                         "(default 0.03, default layers; 'nan' to skip)")
+                    help=f"the default setting compared with the extrapolated value "
+                         f"(default {DEFAULT_CHECK_HMAX:g}, default layers, unrefined; "
+                         "'nan' to skip)")
     ap.add_argument("--solver", default="auto")
     ap.add_argument("--quadrature-order", type=int, default=None)
     ap.add_argument("--max-dofs", type=int, default=300_000,
                     help="refuse meshes estimated above this many unknowns (default 300k)")
     ap.add_argument("--quick", action="store_true",
-                    help=f"coarse validation run: family {QUICK_FAMILY}, check hmax 0.14")
+                    help=f"coarse validation run: base hmax {QUICK_BASE_HMAX:g} (--nested) "
+                         f"or family {QUICK_FAMILY} (--remesh), check hmax "
+                         f"{QUICK_CHECK_HMAX:g}")
     add_run_options(ap, "convergence")
     ap.add_argument("--dry-run", action="store_true",
                     help="list the solves and their estimated sizes, run nothing")
     args = ap.parse_args(argv)
+    nested = args.mode == "nested"
 
-    family = parse_family(args.family or (QUICK_FAMILY if args.quick else DEFAULT_FAMILY))
-    if len(family) < 3:
-        ap.error("--family needs at least three meshes")
-    if any(l is None for _, l in family):
-        ap.error("--family: give the layers of every mesh (hmax:layers)")
-    if any(a[0] <= b[0] for a, b in zip(family, family[1:])):
-        ap.error("--family must go from coarse to fine (hmax decreasing)")
-    check_hmax = args.check_hmax if args.check_hmax is not None else (0.14 if args.quick
-                                                                     else 0.03)
+    if nested:
+        if args.family is not None:
+            ap.error("--family is for --remesh (--nested takes --base-hmax, --base-layers, "
+                     "--refinements)")
+        if args.refinements < 2:
+            ap.error("--refinements must be at least 2 (three meshes for an order)")
+        base_hmax = args.base_hmax if args.base_hmax is not None else (
+            QUICK_BASE_HMAX if args.quick else DEFAULT_BASE_HMAX)
+        try:
+            family = nested_family(base_hmax, args.base_layers, args.refinements)
+        except ValueError as err:
+            ap.error(str(err))
+    else:
+        if args.base_hmax is not None:
+            ap.error("--base-hmax is for --nested (--remesh takes --family)")
+        fam = parse_family(args.family or (QUICK_FAMILY if args.quick else DEFAULT_FAMILY))
+        if len(fam) < 3:
+            ap.error("--family needs at least three meshes")
+        if any(l is None for _, l in fam):
+            ap.error("--family: give the layers of every mesh (hmax:layers)")
+        if any(a[0] <= b[0] for a, b in zip(fam, fam[1:])):
+            ap.error("--family must go from coarse to fine (hmax decreasing)")
+        family = [(h, l, None) for h, l in fam]
+    check_hmax = args.check_hmax if args.check_hmax is not None else (
+        QUICK_CHECK_HMAX if args.quick else DEFAULT_CHECK_HMAX)
     sheet = dict(length=args.length, tip_width=args.tip_width, curvature=args.curvature)
     case_label = (f"L/a={args.length:g}, b/a={args.tip_width:g}, a/R={args.curvature:g}, "
                   f"{args.path}")
 
-    def spec(hmax, layers):
+    def spec(hmax, layers, refine=None):
         s = dict(sheet=sheet, path=args.path, hmax=hmax, layers=layers, solver=args.solver)
+        if refine is not None:
+            s["refine"] = refine
         if args.quadrature_order is not None:
             s["quadrature_order"] = args.quadrature_order
         return s
 
-    specs = [("family", spec(h, l)) for h, l in family]
+    # (role, spec, effective h, layers shown)
+    if nested:
+        specs = [("family", spec(base_hmax, args.base_layers, k), h, l)
+                 for h, l, k in family]
+    else:
+        specs = [("family", spec(h, l), h, l) for h, l, _ in family]
     if not math.isnan(check_hmax):
-        specs.append(("check", spec(check_hmax, None)))
-    for role, s in specs:
+        specs.append(("check", spec(check_hmax, None), check_hmax, None))
+    for role, s, h, shown_layers in specs:
         try:
-            n = estimate_unknowns(sheet, s["hmax"], s["layers"])
+            n = estimate_unknowns(sheet, s["hmax"], s["layers"], refine=s.get("refine") or 0)
         except ValueError as err:   # skfem_sheet's ParameterError: a bad mesh option
             ap.error(str(err))
         if n is not None and n > args.max_dofs:
-            ap.error(f"hmax={s['hmax']:g} with {s['layers'] or 'default'} layers is about "
-                     f"{n:,} unknowns, above --max-dofs {args.max_dofs:,}")
+            ap.error(f"hmax={s['hmax']:g} with {s['layers'] or 'default'} layers"
+                     + (f" refined {s['refine']}x" if s.get("refine") else "")
+                     + f" is about {n:,} unknowns, above --max-dofs {args.max_dofs:,}")
         if args.dry_run:
-            print(f"{role:6s} hmax {s['hmax']:<7g} layers {s['layers'] or 'default':<7} "
-                  f"about {fmt(n, ',d', '?')} unknowns")
+            print(f"{role:6s} h {h:<8g} hmax {s['hmax']:<7g} refine {fmt(s.get('refine'), 'd')}"
+                  f"  layers {shown_layers or 'default':<7} about {fmt(n, ',d', '?')} unknowns "
+                  "(rough estimate)")
     if args.dry_run:
         return 0
 
     store = open_store(args, "convergence")
-    store.save(case=dict(sheet, path=args.path, solver=args.solver), machine=machine_info())
-    todo = [(role, s) for role, s in specs if store.get(s) is None]
-    if todo:
+    case = dict(sheet, path=args.path, solver=args.solver, mode=args.mode)
+    todo = [(role, s, h) for role, s, h, _ in specs if store.get(s) is None]
+    if todo:   # a rerun that only re-analyses keeps the machine info of the solves
+        store.save(case=case, machine=machine_info())
         warn_if_busy()
     runs = {}
-    for role, s in specs:
+    for role, s, h, _ in specs:
         if store.get(s) is not None:
-            runs[role, s["hmax"], s["layers"]] = store.get(s)
+            runs[role, h] = store.get(s)
     bar = tqdm(todo, desc="convergence", unit="solve", file=sys.stderr)
     try:
-        for role, s in bar:
-            bar.set_postfix(hmax=s["hmax"], layers=s["layers"] or "default")
+        for role, s, h in bar:
+            bar.set_postfix(hmax=s["hmax"], refine=s.get("refine", "-"),
+                            layers=s["layers"] or "default")
             rec = run_isolated(s, timeout=args.timeout, threads=args.threads,
                                verbose=args.verbose)
             rec["role"] = role
             store.add(rec)
-            runs[role, s["hmax"], s["layers"]] = rec
+            runs[role, h] = rec
     except KeyboardInterrupt:
         return interrupted(args)
     finally:
         bar.close()
 
-    fam = [runs["family", h, l] for h, l in family]
-    check = runs.get(("check", check_hmax, None))
+    def view(rec, h):
+        """The record with the effective mesh size ``h`` and its layers filled in."""
+        return dict(rec, h=h, layers=rec.get("layers", rec["spec"]["layers"]))
+
+    fam = [view(runs["family", h], h) for h, _, _ in family]
+    check = view(runs["check", check_hmax], check_hmax) if ("check", check_hmax) in runs \
+        else None
     good = [r for r in fam if r["status"] == "converged"]
     bad = [r for r in fam if r["status"] != "converged"]
-    analysis = analyse_sequence([r["spec"]["hmax"] for r in good],
-                                [r["deflection"] for r in good])
+    h_good = [r["h"] for r in good]
+    d_good = [r["deflection"] for r in good]
+    analysis = analyse_sequence(h_good, d_good)
+    orders = local_orders(h_good, d_good)
     if bad:
         analysis["warnings"].insert(0, f"{len(bad)} mesh(es) of the family did not converge "
                                     "and are left out of the analysis")
     d_ref = analysis["extrapolated"] if analysis["extrapolated"] is not None else (
         good[-1]["deflection"] if good else None)
 
-    print(f"convergence of the tip deflection: {case_label}, solver {args.solver}")
-    head = (f"{'hmax':>7s} {'layers':>6s} {'dofs':>8s} {'d/a':>10s} {'error %':>8s} "
-            f"{'newton':>6s} {'wall s':>7s} {'peak GB':>7s}  status")
+    print(f"convergence of the tip deflection: {case_label}, solver {args.solver}, "
+          + (f"nested refinements of hmax {base_hmax:g} / {args.base_layers} layers"
+             if nested else "a fresh triangulation per mesh"))
+    head = (f"{'h':>7s} {'hmax':>6s} {'refine':>6s} {'layers':>6s} {'dofs':>8s} "
+            f"{'d/a':>10s} {'error %':>8s} {'newton':>6s} {'wall s':>7s} {'peak GB':>7s}  status")
     print(head)
     print("-" * len(head))
-    rows = fam + ([check] if check is not None else [])
-    for r in rows:
+    for r in fam + ([check] if check is not None else []):
         d = r.get("deflection")
         err = (100 * (d / d_ref - 1)) if (d is not None and d_ref) else None
         tag = "" if r["status"] == "converged" else \
             f"{r['status']}: {r.get('message') or r.get('error', '')}"
         if r is check:
             tag = ("default setting " + tag).strip()
-        print(f"{r['spec']['hmax']:7.4f} {fmt(r.get('layers', r['spec']['layers']), '6d'):>6s} "
+        print(f"{r['h']:7.4f} {r['spec']['hmax']:6.3f} {fmt(r['spec'].get('refine'), '6d'):>6s} "
+              f"{fmt(r['layers'], '6d'):>6s} "
               f"{fmt(r.get('dofs'), '8d'):>8s} {fmt(d, '10.6f'):>10s} {fmt(err, '+8.3f'):>8s} "
               f"{fmt(r.get('newton_iterations'), '6d'):>6s} "
               f"{fmt(r.get('wall_time_s'), '7.1f'):>7s} "
               f"{fmt(r.get('peak_rss_gb'), '7.2f'):>7s}  {tag}")
     print()
     a = analysis
+    if len(d_good) >= 2:
+        print("differences d(h) - d(h/r): "
+              + ", ".join(f"{x - y:+.3e}" for x, y in zip(d_good, d_good[1:])))
+    if orders:
+        print("order of each consecutive triple: "
+              + ", ".join(fmt(p, ".3f", "none (not converging)") for p in orders))
+    richardson_order = orders[-1] if orders else None
     if a["extrapolated"] is not None:
-        print(f"Richardson (last three meshes): d_inf = {a['extrapolated']:.6f}, "
-              f"observed order {a['observed_order']:.2f} (log-log fit of |d - d_inf| over the "
-              f"last three), {fmt(a['observed_order_all'], '.2f')} over all "
-              f"{len(good)} meshes")
+        print(f"Richardson (three finest): d_inf = {a['extrapolated']:.7f}, order "
+              f"{richardson_order:.3f}; log-log slope of |d - d_inf| over the three finest "
+              f"{a['observed_order']:.3f}"
+              + (f", over all {len(good)} meshes {fmt(a['observed_order_all'], '.3f')}"
+                 if len(good) > 3 else " (the same three points: equal by construction)"))
         if a["power_law"]:
             pl = a["power_law"]
             print(f"least-squares d_inf + C h^p through all {len(good)} meshes: "
-                  f"d_inf = {pl['extrapolated']:.6f}, p = {pl['order']:.2f}, "
+                  f"d_inf = {pl['extrapolated']:.7f}, p = {pl['order']:.3f}, "
                   f"rms residual {pl['rms']:.1e}")
     else:
         print("no extrapolated value; errors above are relative to the finest converged mesh")
@@ -229,17 +314,23 @@ def main(argv=None):
     check_error = None
     if check is not None and check["status"] == "converged" and a["extrapolated"] is not None:
         check_error = check["deflection"] / a["extrapolated"] - 1
+        print(f"default setting hmax {check_hmax:g} ({check['layers']} layers, unrefined): "
+              f"d = {check['deflection']:.7f}, error {100 * check_error:+.3f}% against d_inf")
         targets[f"hmax={check_hmax:g} within 1%"] = abs(check_error) <= TARGET_ERROR
     if targets:
         print("targets: " + ", ".join(f"{k}: {'PASS' if v else 'FAIL'}"
                                       for k, v in targets.items()))
 
     store.save(
-        case=dict(sheet, path=args.path, solver=args.solver),
-        hmax=[r["spec"]["hmax"] for r in good], layers=[r["layers"] for r in good],
-        deflection=[r["deflection"] for r in good], dofs=[r["dofs"] for r in good],
+        case=case,
+        base_hmax=base_hmax if nested else None,
+        base_layers=args.base_layers if nested else None,
+        hmax=h_good, layers=[r["layers"] for r in good],
+        refine=[r["spec"].get("refine") for r in good],
+        deflection=d_good, dofs=[r["dofs"] for r in good],
         wall_time_s=[r["wall_time_s"] for r in good],
         observed_order=a["observed_order"], observed_order_all=a["observed_order_all"],
+        richardson_order=richardson_order, local_orders=orders,
         extrapolated=a["extrapolated"], power_law=a["power_law"], errors=a["errors"],
         error_reference=a["error_reference"], warnings=a["warnings"],
         check=None if check is None else dict(
@@ -251,7 +342,7 @@ def main(argv=None):
         print(f"wrote {args.json}")
     if args.png and good:
         plot(args.png, good, check if check is not None and check["status"] == "converged"
-             else None, a, case_label)
+             else None, a, case_label, nested)
         print(f"wrote {args.png}")
     return 0
 

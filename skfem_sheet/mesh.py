@@ -8,6 +8,18 @@ With ``half=True`` the mirror is skipped: the mesh is then exactly the
 ``y >= 0`` half of the full one (same vertices, same cuts), for the symmetric
 half-model of :func:`skfem_sheet.solve` (``U_y = 0`` on ``y = 0``).
 
+Nested refinement (``refine=k``): the plan triangulation made at ``hmax`` is
+split ``k`` times into four (edge midpoints; the plan's edges are straight, so
+the geometry stays exact) and extruded in ``layers * 2**k`` layers.  Every edge
+of the base mesh is halved ``k`` times in all three directions, so the meshes
+``refine = 0, 1, 2, ...`` of one base are nested (each one's vertices contain
+the previous one's, and each prism lies in one prism of the coarser mesh) and
+made of similar prisms: a convergence study on them is free of the
+mesh-to-mesh noise of unrelated unstructured meshes.  (The tetrahedra are not
+nested: every prism is cut into three along its own vertex order, and the
+middle child of a triangle is the parent rotated by 180 degrees, so its cut is
+the mirror of the parent's.)
+
 Why extruded rather than a free 3D tetrahedral mesh:
 
 - every tetrahedron is well shaped although the sheet is 30x thinner than it is
@@ -33,8 +45,11 @@ import numpy as np
 
 from .params import ParameterError, Sheet, check_range
 
-__all__ = ["SheetMesh", "sheet_mesh", "plan_triangulation", "extrude",
-           "default_layers", "estimate_dofs"]
+__all__ = ["SheetMesh", "sheet_mesh", "plan_triangulation", "refine_triangulation",
+           "extrude", "default_layers", "estimate_dofs", "MAX_REFINE"]
+
+MAX_REFINE = 4
+"""Largest ``refine``: 4 halvings are 256x the tetrahedra of the base mesh."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,11 +61,15 @@ class SheetMesh:
     mesh : skfem.MeshTet
         The tetrahedra (positively oriented).
     length, tip_width, thickness, hmax : float
-        The geometry it was built for and the target element size.
+        The geometry it was built for and the target element size of the base
+        triangulation (the edges are about ``hmax / 2**refine`` long).
     layers : int
-        Number of element layers through the thickness.
+        Number of element layers through the thickness (all of them: the base
+        layers times ``2**refine``).
     half : bool
         Only the half ``y >= 0`` is meshed (symmetric half-model).
+    refine : int
+        Number of nested refinements of the base mesh (0: the base mesh).
     """
 
     mesh: object
@@ -60,6 +79,7 @@ class SheetMesh:
     hmax: float
     layers: int
     half: bool = False
+    refine: int = 0
 
     @property
     def n_elements(self) -> int:
@@ -116,6 +136,13 @@ def default_layers(thickness: float, hmax: float) -> int:
     return max(2, math.ceil(thickness / hmax - 1e-9))
 
 
+def _check_refine(refine) -> int:
+    if (isinstance(refine, (bool, np.bool_)) or not isinstance(refine, (int, np.integer, float))
+            or not float(refine).is_integer() or not 0 <= refine <= MAX_REFINE):
+        raise ParameterError(f"refine must be an integer in [0, {MAX_REFINE}], got {refine!r}")
+    return int(refine)
+
+
 def _check_mesh_args(sheet: Sheet, hmax: float, layers):
     hmax = check_range("hmax", hmax, 0, None, lo_open=True)
     top = min(0.5, sheet.length)
@@ -132,13 +159,25 @@ def _check_mesh_args(sheet: Sheet, hmax: float, layers):
     return hmax, int(layers)
 
 
-def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False) -> int:
+def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False,
+                  refine: int = 0) -> int:
     """Rough number of unknowns (P2 displacement + P1 pressure) before meshing.
 
     Used to refuse meshes that would not fit in memory with a clear message.
+    The arguments are those of :func:`sheet_mesh`.
+
+    Examples
+    --------
+    >>> s = Sheet(length=1.8)
+    >>> n0, n1 = estimate_dofs(s, 0.16, 2, half=True), estimate_dofs(s, 0.16, 2, True, refine=1)
+    >>> 7 < n1 / n0 < 9
+    True
     """
     hmax, layers = _check_mesh_args(sheet, hmax, layers)
-    n_tri = 2.0 * sheet.area / (math.sqrt(3) / 4 * hmax**2) / (4 if half else 2)
+    refine = _check_refine(refine)
+    layers *= 2**refine
+    n_tri = (2.0 * sheet.area / (math.sqrt(3) / 4 * hmax**2) / (4 if half else 2)
+             * 4**refine)
     n_v2 = 0.5 * n_tri  # plan vertices
     n_e2 = 1.5 * n_tri
     nv = n_v2 * (layers + 1)
@@ -146,11 +185,15 @@ def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False) ->
     return int(3 * (nv + nedges) + nv)
 
 
-def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool = False):
+def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool = False,
+                       refine: int = 0):
     """Triangulate the plan view, mirror-symmetric about ``y = 0``.
 
     With ``half=True`` only the part ``y >= 0`` (the same triangles, in the
-    same relative vertex order).
+    same relative vertex order).  With ``refine=k`` the triangulation made at
+    ``hmax`` is split ``k`` times into four (:func:`refine_triangulation`);
+    the result is still exactly mirror-symmetric, and its half is the half of
+    the refined whole.
 
     Returns
     -------
@@ -171,6 +214,11 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
     mirror_index[off] = n + np.arange(len(off))
     xy = np.vstack([half_xy, half_xy[off] * [1.0, -1.0]])
     tri = np.vstack([half_tri, mirror_index[half_tri][:, ::-1]])
+    # refine the whole (mirror-symmetric) plan: the midpoint of a mirrored edge
+    # is the exact mirror of the midpoint (negation is exact in floating point),
+    # midpoints of axis edges have y = 0 exactly, and every child triangle stays
+    # on its parent's side of the axis
+    xy, tri = refine_triangulation(xy, tri, _check_refine(refine))
     # vertex order (x, |y|, y): mirror-invariant for every edge that exists
     # (no triangle contains a vertex and its mirror image)
     order = np.lexsort((xy[:, 1], np.abs(xy[:, 1]), xy[:, 0]))
@@ -182,6 +230,48 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
         tri = tri[np.all(keep[tri], axis=1)]
         new = np.cumsum(keep) - 1
         xy, tri = xy[keep], new[tri]
+    return xy, tri
+
+
+def refine_triangulation(xy, tri, times: int = 1):
+    """Split every triangle into four at its edge midpoints, ``times`` times.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (n, 2)
+        Vertices.
+    tri : ndarray, shape (m, 3)
+        Triangles (their orientation is kept by the children).
+    times : int
+        Number of refinements (0 returns the input).
+
+    Returns
+    -------
+    xy : ndarray, shape (n + n_edges, 2) for ``times=1``
+        The old vertices first (same indices), then one midpoint per edge.
+    tri : ndarray, shape (4**times m, 3)
+
+    Examples
+    --------
+    >>> xy, tri = refine_triangulation(np.array([[0., 0.], [1., 0.], [0., 1.]]),
+    ...                                np.array([[0, 1, 2]]))
+    >>> xy.tolist()[3:], tri.shape
+    ([[0.5, 0.0], [0.0, 0.5], [0.5, 0.5]], (4, 3))
+    """
+    xy = np.asarray(xy, dtype=float)
+    tri = np.asarray(tri, dtype=np.int64)
+    for _ in range(int(times)):
+        n = len(xy)
+        # edges (0,1), (1,2), (2,0) of every triangle, numbered once each
+        pairs = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1),
+                        axis=2).reshape(-1, 2)
+        edges, which = np.unique(pairs, axis=0, return_inverse=True)
+        mid = n + which.reshape(-1, 3)   # midpoint vertex of edge (01, 12, 20)
+        xy = np.vstack([xy, 0.5 * (xy[edges[:, 0]] + xy[edges[:, 1]])])
+        a, b, c = tri.T
+        m01, m12, m20 = mid.T
+        tri = np.vstack([np.stack([a, m01, m20], axis=1), np.stack([m01, b, m12], axis=1),
+                         np.stack([m20, m12, c], axis=1), np.stack([m01, m12, m20], axis=1)])
     return xy, tri
 
 
@@ -276,7 +366,8 @@ def extrude(xy, tri, thickness: float, layers: int):
     return p, t
 
 
-def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False) -> SheetMesh:
+def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False,
+               refine: int = 0) -> SheetMesh:
     """The (cached) tetrahedral mesh of ``sheet``.
 
     Parameters
@@ -290,23 +381,35 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
         see :func:`default_layers`).
     half : bool
         Mesh only the half ``y >= 0`` (the ``y >= 0`` part of the full mesh).
+    refine : int
+        Nested refinements, 0 to 4: the plan triangulation made at ``hmax``
+        is split ``refine`` times into four and extruded in
+        ``layers * 2**refine`` layers, so every edge of the base mesh is halved
+        ``refine`` times in all three directions (8x the tetrahedra each time).
 
     Examples
     --------
     >>> m = sheet_mesh(Sheet(length=1.0), hmax=0.25)
     >>> m.layers, m.mesh.p.shape[0]
     (2, 3)
+    >>> r = sheet_mesh(Sheet(length=1.0), hmax=0.25, refine=1)
+    >>> r.layers, r.n_elements // m.n_elements
+    (4, 8)
     """
     hmax, layers = _check_mesh_args(sheet, hmax, layers)
-    return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax, layers,
-                        bool(half))
+    refine = _check_refine(refine)
+    return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax,
+                        layers * 2**refine, bool(half), refine)
 
 
 @lru_cache(maxsize=16)
-def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False) -> SheetMesh:
+def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False,
+                 refine=0) -> SheetMesh:
+    """The mesh; ``layers`` are all the layers (base layers times ``2**refine``)."""
     from skfem import MeshTet
 
-    xy, tri = plan_triangulation(length, tip_width, hmax, half)
+    xy, tri = plan_triangulation(length, tip_width, hmax, half, refine)
     p, t = extrude(xy, tri, thickness, layers)
     return SheetMesh(mesh=MeshTet(p, t), length=length, tip_width=tip_width,
-                     thickness=thickness, hmax=hmax, layers=layers, half=bool(half))
+                     thickness=thickness, hmax=hmax, layers=layers, half=bool(half),
+                     refine=refine)

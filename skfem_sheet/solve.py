@@ -169,12 +169,13 @@ class Result:
 
 @lru_cache(maxsize=8)
 def _problem(sheet: Sheet, hmax: float, layers, quadrature_order: int,
-             half: bool = False) -> SheetProblem:
-    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half), quadrature_order)
+             half: bool = False, refine: int = 0) -> SheetProblem:
+    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half, refine=refine),
+                        quadrature_order)
 
 
 def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
-          layers=None, solver: str = "auto", quadrature_order: int = 2,
+          layers=None, refine: int = 0, solver: str = "auto", quadrature_order: int = 2,
           symmetric: bool = True,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
@@ -191,6 +192,13 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         most ``hmax`` thick).
     layers : int, optional
         Number of element layers through the thickness.
+    refine : int
+        Nested mesh refinement, 0 to 4 (default 0): the mesh made at ``hmax``
+        with ``layers`` layers has every edge halved ``refine`` times in all
+        three directions (each triangle of the plan split into four,
+        ``layers * 2**refine`` layers; 8x the elements per step).  Meshes with
+        the same ``hmax`` and ``layers`` and increasing ``refine`` are nested:
+        the clean sequence for convergence studies.
     solver : {"auto", "pardiso", "superlu"}
         Linear-solver back-end (see :mod:`skfem_sheet.linalg`).
     quadrature_order : {2, 3, 4}
@@ -227,9 +235,11 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     hmax = check_range("hmax", hmax, 0, None, lo_open=True)
     if not isinstance(symmetric, (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {symmetric!r}")
-    ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric)
+    ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric, refine=refine)
     if ndofs > MAX_DOFS:
-        raise ParameterError(f"hmax must be larger: hmax={hmax:g} gives about {ndofs:,} unknowns, "
+        what = f"hmax={hmax:g}" + (f" with refine={refine}" if refine else "")
+        raise ParameterError(f"hmax must be larger{' or refine smaller' if refine else ''}: "
+                         f"{what} gives about {ndofs:,} unknowns, "
                          f"more than the {MAX_DOFS:,} that fit in memory here")
     linear = make_linear_solver(solver)
     newton_options = newton_options or NewtonOptions()
@@ -237,7 +247,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
 
     t0 = time.perf_counter()
     stats = Stats()
-    problem = _problem(sheet, hmax, layers, quadrature_order, bool(symmetric))
+    problem = _problem(sheet, hmax, layers, quadrature_order, bool(symmetric), int(refine))
     if hasattr(linear, "attach"):  # back-ends that need the dof structure (pyamg)
         linear.attach(problem)
     bar = None

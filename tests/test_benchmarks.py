@@ -136,3 +136,87 @@ def test_doctests_of_helpers():
     # the helpers' docstring examples (benchmarks/ is outside pytest's doctest paths)
     failed, attempted = doctest.testmod(bench, optionflags=doctest.ELLIPSIS)
     assert attempted >= 6 and failed == 0
+
+
+# ---------------------------------------------------------------------------
+# Nested refinement study (benchmarks/convergence.py --nested)
+# ---------------------------------------------------------------------------
+NESTED = [0.16, 0.08, 0.04, 0.02]   # base hmax 0.16 and three halvings
+
+
+def test_nested_family_halves_hmax_and_doubles_layers():
+    fam = bench.nested_family(0.16, 2, 3)
+    assert [f[2] for f in fam] == [0, 1, 2, 3]
+    assert [f[1] for f in fam] == [2, 4, 8, 16]
+    assert [f[0] for f in fam] == NESTED          # exact: division by powers of two
+    with pytest.raises(ValueError, match="refinements"):
+        bench.nested_family(0.16, 2, -1)
+    with pytest.raises(ValueError, match="layers"):
+        bench.nested_family(0.16, 0, 2)
+    with pytest.raises(ValueError, match="hmax"):
+        bench.nested_family(0.0, 2, 2)
+
+
+def test_local_orders_ratio_two_settle_to_the_leading_order():
+    # d = d0 + C h^2 + h^3: the three-point order log2((d1-d2)/(d2-d3)) tends to 2
+    # from above as h -> 0 (the h^3 term fades by a factor 2 per halving)
+    d = second_order(NESTED, c3=3.0)
+    orders = bench.local_orders(NESTED, d)
+    assert len(orders) == 2
+    assert 2.0 < orders[1] < orders[0]
+    # the excess over 2 shrinks by a factor 2 per halving asymptotically; 1.66 here,
+    # where the h^3 term is still 30-60% of the h^2 one
+    assert orders[1] - 2.0 < 0.65 * (orders[0] - 2.0)
+    # the formula for ratio 2, written out
+    d1, d2, d3 = d[1:]
+    assert orders[1] == pytest.approx(math.log2((d1 - d2) / (d2 - d3)), rel=1e-12)
+    # and Richardson on the three finest recovers the limit to a fraction of the error
+    d_inf, p, _ = bench.richardson(NESTED[1:], d[1:])
+    assert abs(d_inf - D0) < 0.1 * abs(d[-1] - D0)
+
+
+def test_local_orders_mark_non_converging_triples():
+    h = NESTED
+    assert bench.local_orders(h, [1.0, 1.1, 1.05, 1.06]) == [None, None]
+    orders = bench.local_orders(h, [1.2, 1.1, 1.05, 1.06])   # last triple turns back
+    assert orders[0] == pytest.approx(1.0, abs=1e-12) and orders[1] is None
+    assert bench.local_orders(h[:2], [1.0, 1.1]) == []
+
+
+def _convergence_main():
+    import sys
+
+    bench_dir = os.path.dirname(_PATH)
+    if bench_dir not in sys.path:
+        sys.path.insert(0, bench_dir)
+    spec = importlib.util.spec_from_file_location("bench_convergence",
+                                                  os.path.join(bench_dir, "convergence.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.main
+
+
+def test_convergence_dry_run_lists_the_nested_family(capsys):
+    main = _convergence_main()
+    assert main(["--dry-run"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    fam = [ln.split() for ln in lines if ln.startswith("family")]
+    # h, base hmax, refine, layers of the default family: 0.16/0.08/0.04, 2/4/8
+    assert [(f[2], f[4], f[6], f[8]) for f in fam] == [("0.16", "0.16", "0", "2"),
+                                                       ("0.08", "0.16", "1", "4"),
+                                                       ("0.04", "0.16", "2", "8")]
+    check = [ln.split() for ln in lines if ln.startswith("check")]
+    assert len(check) == 1 and check[0][2] == "0.03"
+
+
+@pytest.mark.parametrize("argv, msg", [(["--refinements", "1"], "at least 2"),
+                                       (["--family", "0.1:2,0.05:4,0.025:8"], "--remesh"),
+                                       (["--remesh", "--base-hmax", "0.1"], "--nested"),
+                                       (["--base-hmax", "0.01", "--refinements", "3"],
+                                        "max-dofs")])
+def test_convergence_refuses_bad_options(argv, msg, capsys):
+    main = _convergence_main()
+    with pytest.raises(SystemExit) as exc:
+        main(argv + ["--dry-run"])
+    assert exc.value.code == 2
+    assert msg in capsys.readouterr().err
