@@ -38,15 +38,12 @@ import hashlib
 import itertools
 import json
 import math
-import os
-import socket
 import time
-import traceback
 from datetime import datetime, timezone
 
 import numpy as np
 
-from .params import ParameterError, check_range
+from .params import ParameterError
 from . import sweep as _sweep
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
@@ -187,14 +184,8 @@ def _run_map_point(point) -> dict:
                    wall_time_s=float(r.wall_time_s))
         rec["transition_length"] = _nan(transition_length(rec))
     except Exception as err:  # noqa: BLE001 - one bad point must not stop the map
-        rec.update(message=str(err) or type(err).__name__, error=type(err).__name__,
-                   wall_time_s=time.perf_counter() - t0)
-        if not isinstance(err, ParameterError):
-            rec["traceback"] = traceback.format_exc()
-    rec["finished_at"] = datetime.now(timezone.utc).isoformat(timespec="milliseconds")
-    rec["host"] = socket.gethostname()
-    rec["pid"] = os.getpid()
-    return {k: _sweep._pyval(v) for k, v in rec.items()}
+        _sweep._record_failure(rec, err, t0)
+    return _sweep._finish(rec)
 
 
 def _run_map_chunk(points) -> list:

@@ -307,10 +307,20 @@ def _run_point(point) -> dict:
             factorizations=int(r.factorizations), rejected_steps=int(r.rejected_steps),
             linear_solver=str(r.solver), layers_used=int(r.layers))
     except Exception as err:  # noqa: BLE001 - one bad point must not stop the sweep
-        rec.update(message=str(err) or type(err).__name__, error=type(err).__name__,
-                   wall_time_s=time.perf_counter() - t0)
-        if not isinstance(err, ParameterError):
-            rec["traceback"] = traceback.format_exc()
+        _record_failure(rec, err, t0)
+    return _finish(rec)
+
+
+def _record_failure(rec, err, t0):
+    """Put an exception raised while computing a point into its record."""
+    rec.update(message=str(err) or type(err).__name__, error=type(err).__name__,
+               wall_time_s=time.perf_counter() - t0)
+    if not isinstance(err, ParameterError):
+        rec["traceback"] = traceback.format_exc()
+
+
+def _finish(rec) -> dict:
+    """Stamp a finished record (time, host, process) and make it JSON-ready."""
     rec["finished_at"] = datetime.now(timezone.utc).isoformat(timespec="milliseconds")
     rec["host"] = socket.gethostname()
     rec["pid"] = os.getpid()
