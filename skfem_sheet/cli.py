@@ -39,6 +39,8 @@ def _add_solve_args(p, hmax=0.03):
                    help="load path: curvature-first (aloft branch) or gravity-first (drooped)")
     p.add_argument("--hmax", type=float, default=hmax, help=f"mesh size (default {hmax})")
     p.add_argument("--layers", type=int, default=None, help="element layers through the thickness")
+    p.add_argument("--refine", type=int, default=0,
+                   help="nested refinement: halve every edge this many times (0-4, default 0)")
     p.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, superlu")
     p.add_argument("--json", default=None, help="write a JSON summary here")
     p.add_argument("--vtu", default=None, help="write the deformed sheet (VTU, ParaView) here")
@@ -94,7 +96,8 @@ def _run(args):
         if getattr(args, name):
             check_writable(f"--{name}", getattr(args, name), [suffix])
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
-                   solver=args.solver, on_failure="return", progress=not args.quiet)
+                   refine=args.refine, solver=args.solver, on_failure="return",
+                   progress=not args.quiet)
     if args.json:
         result.write(args.json)
     if args.vtu:

@@ -278,7 +278,15 @@ class SheetProblem:
             nel = len(self.dx)
             self._workspace["tangent"] = (np.empty((nel, 34, 34)), np.empty((nel, 30, 30)))
         Kb, Yb = self._workspace["tangent"]
-        Ke = self.element_matrices(w, out=Kb, work=Yb).ravel()
+        chunks = _element_chunks(len(self.dx))
+        if len(chunks) == 1:
+            self.element_matrices(w, out=Kb, work=Yb)
+        else:  # numpy's kernels release the GIL: one chunk of elements per core
+            futures = [_pool().submit(self.element_matrices, w, sl, Kb[sl], Yb[sl])
+                       for sl in chunks]
+            for f in futures:
+                f.result()
+        Ke = Kb.ravel()
         data = self._scatter_ff @ Ke
         nf = self.n_free
         return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
@@ -387,6 +395,45 @@ def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
 
 class _Namespace:
     pass
+
+
+#: Below this many elements the tangent is computed in one thread.
+_THREAD_MIN_ELEMENTS = 4000
+#: The thread pool of the element kernels, created on first use and shared by
+#: every problem of the process (one pool per mesh would leave idle threads
+#: behind in long sweeps).  Threads only ever write disjoint slices.
+_POOL = []
+
+
+def _threads() -> int:
+    """Threads for the element kernels: the BLAS/OpenMP thread setting if there
+    is one (sweep workers get ``cores // workers``), else the usable cores (at most 4)."""
+    import os
+
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        v = os.environ.get(var, "")
+        if v.isdigit() and int(v) > 0:
+            return min(4, int(v))
+    try:
+        return max(1, min(4, len(os.sched_getaffinity(0))))
+    except AttributeError:  # not on Linux
+        return max(1, min(4, os.cpu_count() or 1))
+
+
+def _pool():
+    """A process-wide thread pool for the element kernels (created on first use)."""
+    if not _POOL:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL.append(ThreadPoolExecutor(_threads(), thread_name_prefix="skfem_sheet"))
+    return _POOL[0]
+
+
+def _element_chunks(nel):
+    """Slices of the elements, one per thread (one slice for small meshes)."""
+    n = _threads() if nel >= _THREAD_MIN_ELEMENTS else 1
+    bounds = np.linspace(0, nel, n + 1).astype(int)
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def _scatter(slots, entries, n_slots, n_entries):

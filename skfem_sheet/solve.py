@@ -77,6 +77,9 @@ class Result:
         perturbations.
     negative_eigenvalues : int or None
         Number of negative eigenvalues of the constrained Hessian.
+    refine : int
+        Nested refinements of the mesh made at ``hmax`` (``layers`` counts
+        the layers after refinement).
     """
 
     sheet: Sheet
@@ -105,6 +108,7 @@ class Result:
     branch: str = ""
     stable: object = None
     negative_eigenvalues: object = None
+    refine: int = 0
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -153,7 +157,8 @@ class Result:
             "negative_eigenvalues": self.negative_eigenvalues,
             "params": {"length": s.length, "tip_width": s.tip_width,
                        "curvature": s.curvature, "thickness": s.thickness,
-                       "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers},
+                       "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers,
+                       "refine": self.refine},
             "steps": [list(x) for x in self.steps],
             "snaps": [list(x) for x in self.snaps],
             "version": __version__,
@@ -289,7 +294,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         solver=linear.name, layers=problem.sheet_mesh.layers,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
         branch=_branch(path, out.snaps), stable=stable, negative_eigenvalues=n_neg,
-        problem=problem, w=w)
+        refine=int(refine), problem=problem, w=w)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result

@@ -93,3 +93,18 @@ def test_bad_argument_through_the_interpreter():
     p = run("solve", "--length", "1", "--curvature", "9")
     assert p.returncode == 2
     assert "curvature must be in" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_solve_refine_is_passed_and_reported(tmp_path):
+    """--refine 1 halves every edge: twice the layers, several times the unknowns; the
+    JSON records it."""
+    from skfem_sheet import Sheet, solve
+
+    out = tmp_path / "r.json"
+    rc = main(["solve", "--length", "0.3", "--hmax", "0.3", "--refine", "1", "--json", str(out),
+               "--quiet"])
+    assert rc == 0
+    s = json.loads(out.read_text())
+    base = solve(Sheet(length=0.3), hmax=0.3)
+    assert s["params"]["refine"] == 1 and s["params"]["layers"] == 2 * base.layers
+    assert s["dofs"] > 4 * base.dofs

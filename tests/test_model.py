@@ -186,3 +186,23 @@ def test_pattern_of_a_large_mesh():
     assert p.n_nodes + p.n_vertices > 46341
     K = p.tangent(np.zeros(p.ndof))
     assert K.shape == (p.n_free, p.n_free) and K.has_sorted_indices
+
+
+def test_threaded_tangent_equals_serial(monkeypatch):
+    """The element kernels run on chunks of elements in threads; the assembled
+    tangent must be the serial one exactly (disjoint slices, same arithmetic)."""
+    from skfem_sheet import model
+    from skfem_sheet.params import Sheet
+    from skfem_sheet.solve import _problem
+
+    pb = _problem(Sheet(length=1.0, curvature=2.5), 0.15, None, 2, half=True)
+    rng = np.random.default_rng(3)
+    w = np.zeros(pb.ndof)
+    w[:pb.nu_dof] = 1e-3 * rng.standard_normal(pb.nu_dof)
+    w[pb.nu_dof:] = 0.1 * rng.standard_normal(pb.ndof - pb.nu_dof)
+    monkeypatch.setattr(model, "_THREAD_MIN_ELEMENTS", 10**9)
+    serial = pb.tangent(w).toarray()
+    monkeypatch.setattr(model, "_THREAD_MIN_ELEMENTS", 1)
+    monkeypatch.setattr(model, "_threads", lambda: 3)
+    assert len(model._element_chunks(len(pb.dx))) == 3
+    assert np.array_equal(pb.tangent(w).toarray(), serial)
