@@ -200,19 +200,8 @@ def _failed_map_point(point, message, error):
 
 
 def _frame(records):
-    import pandas as pd
-
-    df = pd.DataFrame.from_records(list(records), columns=list(MAP_COLUMNS))
-    for c in _FLOAT:
-        df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
-    for c in _INT:
-        df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
-    for c in ("bistable", "converged"):
-        df[c] = df[c].fillna(False).astype(bool)
-    string = "str" if int(pd.__version__.split(".")[0]) >= 3 else object
-    for c in _STR:
-        df[c] = df[c].astype(object).where(df[c].notna(), None).astype(string)
-    return df
+    return _sweep.typed_frame(records, MAP_COLUMNS, floats=_FLOAT, ints=_INT,
+                              bools=("bistable", "converged"), strings=_STR)
 
 
 _MAP_JOB = _sweep._Job(_run_map_chunk, _failed_map_point, _frame, _key,

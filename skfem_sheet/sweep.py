@@ -430,18 +430,28 @@ class _Journal:
 
 def _frame(records):
     """A DataFrame with the table's columns and dtypes."""
+    return typed_frame(records, COLUMNS, floats=_FLOAT, ints=_INT, bools_or_na=_BOOL_OR_NA,
+                       bools=("converged",), strings=_STR)
+
+
+def typed_frame(records, columns, *, floats=(), ints=(), bools_or_na=(), bools=(),
+                strings=()):
+    """Records as a DataFrame with fixed columns and dtypes (missing values stay
+    missing: NaN floats, nullable ``Int64``/``boolean``, None strings; ``bools``
+    count a missing value as False)."""
     import pandas as pd
 
-    df = pd.DataFrame.from_records(list(records), columns=list(COLUMNS))
-    for c in _FLOAT:
+    df = pd.DataFrame.from_records(list(records), columns=list(columns))
+    for c in floats:
         df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
-    for c in _INT:
+    for c in ints:
         df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
-    for c in _BOOL_OR_NA:
+    for c in bools_or_na:
         df[c] = df[c].astype("boolean")
-    df["converged"] = df["converged"].fillna(False).astype(bool)
+    for c in bools:
+        df[c] = df[c].fillna(False).astype(bool)
     string = "str" if int(pd.__version__.split(".")[0]) >= 3 else object  # pandas' default
-    for c in _STR:
+    for c in strings:
         df[c] = df[c].astype(object).where(df[c].notna(), None).astype(string)
     return df
 
