@@ -506,10 +506,9 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     for b in bars:
         if b is not None:
             b.close()
-    L1, L0 = up.fold, down.fold
-    if up.start_snapped or down.start_snapped:  # a branch missing at its start: no fold of it
-        L1 = None if up.start_snapped else L1
-        L0 = None if down.start_snapped else L0
+    # a branch missing where it starts (its path snapped there) has no fold of its own
+    L1 = None if up.start_snapped else up.fold
+    L0 = None if down.start_snapped else down.fold
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
                        bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
                        tol, time.perf_counter() - t0)

@@ -34,7 +34,6 @@ Examples
 """
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
 import math
@@ -74,28 +73,12 @@ _STR = ("solver", "message", "curvature_dominated_reason", "gravity_dominated_re
 
 # -- points and keys -------------------------------------------------------------------------
 def _normalize(point) -> dict:
-    if not isinstance(point, dict):
-        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
-    unknown = [k for k in point if k not in MAP_PARAMETERS]
-    if unknown:
-        raise ParameterError(f"map point parameter {unknown[0]!r} is unknown; "
-                             f"allowed: {', '.join(MAP_PARAMETERS)}")
-    out = {}
-    for name, default in MAP_PARAMETERS.items():
-        v = point.get(name, default)
-        if name in _NUMERIC:
-            v = _sweep._norm_number(v)
-        elif name == "layers":
-            v = _sweep._norm_layers(v)
-        out[name] = v
-    return out
+    return _sweep.normalize_params(point, MAP_PARAMETERS, _NUMERIC, "map point")
 
 
 def _key(point) -> str:
     p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
-    text = json.dumps(["fold-map", *[[k, _sweep._key_value(p[k])] for k in MAP_PARAMETERS]],
-                      separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return _sweep.hash_key(["fold-map", *[[k, _sweep._key_value(p[k])] for k in MAP_PARAMETERS]])
 
 
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,

@@ -171,18 +171,27 @@ def normalize_point(point) -> dict:
      'modulus': 735.0, 'path': 'curvature-first', 'hmax': 0.03, 'layers': 2,
      'solver': 'auto'}
     """
-    if not isinstance(point, dict):
-        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
-    unknown = [k for k in point if k not in PARAMETERS]
-    if unknown:
-        raise ParameterError(f"point parameter {unknown[0]!r} is unknown; "
-                             f"allowed: {', '.join(PARAMETERS)}")
+    out = normalize_params(point, PARAMETERS, _NUMERIC, "point")
     if "length" not in point:
         raise ParameterError("every point needs a length")
+    return out
+
+
+def normalize_params(point, parameters, numeric, what) -> dict:
+    """``point`` with every name of ``parameters`` (defaults filled in), in
+    their order; the ``numeric`` ones rounded to 10 significant digits,
+    ``layers`` a whole number made ``int``.  ``ParameterError`` for a
+    non-dict or an unknown name (``what`` names the kind of point)."""
+    if not isinstance(point, dict):
+        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
+    unknown = [k for k in point if k not in parameters]
+    if unknown:
+        raise ParameterError(f"{what} parameter {unknown[0]!r} is unknown; "
+                             f"allowed: {', '.join(parameters)}")
     out = {}
-    for name, default in PARAMETERS.items():
+    for name, default in parameters.items():
         v = point.get(name, default)
-        if name in _NUMERIC:
+        if name in numeric:
             v = _norm_number(v)
         elif name == "layers":
             v = _norm_layers(v)
@@ -209,7 +218,12 @@ def point_key(point) -> str:
     False
     """
     p = normalize_point(point)
-    text = json.dumps([[k, _key_value(p[k])] for k in PARAMETERS], separators=(",", ":"))
+    return hash_key([[k, _key_value(p[k])] for k in PARAMETERS])
+
+
+def hash_key(items) -> str:
+    """16 hex digits of the SHA-256 of ``items`` as compact JSON (the journal keys)."""
+    text = json.dumps(items, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
