@@ -35,7 +35,7 @@ Functions
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from .continuation import follow_path
 from .linalg import LinearSolverError, make_linear_solver
 from .mesh import sheet_mesh
 from .model import SheetProblem
-from .newton import NewtonOptions, Stats, newton
+from .newton import NewtonOptions, Stats, _timed, newton
 from .observables import tip_deflection
 from .params import ParameterError, Sheet, check_range
 
@@ -641,20 +641,20 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
         wk, Lk = w_p.copy(), L_p
         for its in range(1, opts.max_iterations + 1):
             prob = track.at(Lk)
-            r, Jmin = prob.residual(wk, 1.0)
+            r, Jmin = _timed(stats, "assembly_s", prob.residual, wk, 1.0)
             if not Jmin > 0:
                 break
             N = dot(t_w, wk - w) + t_L * (Lk - L) - h
             rn = float(np.linalg.norm(r[free]))
-            K = prob.tangent(wk)
+            K = _timed(stats, "assembly_s", prob.tangent, wk)
             try:
-                track.solver.factorize(K, state=wk)
+                _timed(stats, "linear_solve_s", track.solver.factorize, K, wk)
             except LinearSolverError:
                 break
             stats.factorizations += 1
             stats.newton_iterations += 1
-            a = track.solver.solve(-r[free])
-            b = track.solver.solve(_residual_rate(prob, wk)[free])
+            a = _timed(stats, "linear_solve_s", track.solver.solve, -r[free])
+            b = _timed(stats, "linear_solve_s", track.solver.solve, _residual_rate(prob, wk)[free])
             tf = t_w[free]
             ta = theta * float(np.dot(tf[u_free], a[u_free])) + tf[tip_f] * a[tip_f]
             tb = theta * float(np.dot(tf[u_free], b[u_free])) + tf[tip_f] * b[tip_f]

@@ -20,7 +20,9 @@ Discretisation: Taylor-Hood tetrahedra, P2 displacement, P1 pressure;
 displacement dofs are numbered node by node, ``3 * node + component``, then
 pressure dofs ``3 * n_nodes + vertex``.  Element matrices are computed for all
 elements at once with a few batched products (no per-basis-pair callbacks),
-and scattered into a CSR matrix whose sparsity pattern is computed once.
+as 3 x 3 node-node and 3 x 1 node-vertex blocks; the blocks are summed per
+global block pair with two sparse products and gathered into a CSR matrix
+whose sparsity pattern is computed once.
 """
 from __future__ import annotations
 
@@ -125,7 +127,7 @@ class SheetProblem:
 
     Holds everything that does not change between Newton iterations or load
     steps: basis gradients and weights, dof maps, the CSR sparsity pattern of
-    the reduced (free-dof) tangent and the scatter maps into it.
+    the reduced (free-dof) tangent and the assembly operators into it.
 
     Parameters
     ----------
@@ -143,6 +145,7 @@ class SheetProblem:
         self.sheet = sheet
         self.mu = sheet.mu
         self.length = mesh.length  # current sheet length (see with_length)
+        self._constants = {}  # assembled constant matrices (see _tangent_constant)
 
     def with_length(self, length: float) -> "SheetProblem":
         """The same problem for a sheet of another length, on the same mesh
@@ -170,8 +173,8 @@ class SheetProblem:
         new.dx = ref["dx"] * s
         new.nodes = ref["nodes"] * np.array([s, 1.0, 1.0])
         new._lap = np.einsum("eq,eqaj,eqbj->eab", new.dx, new.dphi, new.dphi)
+        new._constants = {}
         new.gravity_load = ref["gravity_load"] * s
-        new.mass_data = ref["mass_data"] * s
         new.volume0 = ref["volume0"] * s
         return new
 
@@ -228,68 +231,131 @@ class SheetProblem:
         r += g * self.gravity_load
         return r, Jmin
 
-    def element_matrices(self, w, elements=None, out=None, work=None):
+    def _element_blocks(self, w, sel, Kb, Kpu, chunk=256):
+        """The state-dependent part of the element tangents, written in place.
+
+        ``Kb`` (n, 10, 10, 3, 3) receives the 3 x 3 node-node blocks
+        ``Kb[a, b, i, k] = int (mu + p J) b_ak b_bi - p J b_ai b_bk``
+        (the constant ``mu d_ik grad phi_a . grad phi_b`` is left out: see
+        :meth:`_constant_blocks`), ``Kpu`` (n, 4, 10, 3) receives
+        ``Kpu[c, a, i] = -int J b_ai psi_c``, with the spatial gradients
+        ``b_a = F^{-T} grad phi_a``.  ``sel`` selects the elements (a slice or
+        an index array).  The two 30 x 30 products and their rearrangement into
+        blocks run on ``chunk`` elements at a time, in cache.
+        """
+        F, p = self._fields(w, sel)
+        J, Finv = det_inv(F)
+        nel, nq = J.shape
+        bs = np.matmul(self.dphi[sel], Finv).reshape(nel, nq, 30)  # b_ai = dphi_am Finv_mi
+        wq = self.dx[sel]
+        wpJ = wq * p * J
+        c3 = -wpJ[..., None] * bs  # - p J b_ai b_bk
+        c2 = (self.mu * wq + wpJ)[..., None] * bs  # (mu + p J) b_ak b_bi
+        m = min(chunk, nel)
+        Y2, Y3 = np.empty((m, 30, 30)), np.empty((m, 30, 30))
+        for lo in range(0, nel, m):
+            hi = min(lo + m, nel)
+            y2, y3 = Y2[: hi - lo], Y3[: hi - lo]
+            bt = bs[lo:hi]
+            np.matmul(c3[lo:hi].transpose(0, 2, 1), bt, out=y3)  # (a, i, b, k)
+            np.matmul(c2[lo:hi].transpose(0, 2, 1), bt, out=y2)  # (a, k, b, i)
+            np.add(y3.reshape(-1, 10, 3, 10, 3).transpose(0, 1, 3, 2, 4),
+                   y2.reshape(-1, 10, 3, 10, 3).transpose(0, 1, 3, 4, 2), out=Kb[lo:hi])
+        np.matmul(self.phi1[sel].transpose(0, 2, 1), -(wq * J)[..., None] * bs,
+                  out=Kpu.reshape(nel, 4, 30))
+
+    def element_matrices(self, w, elements=None):
         """Element tangents, shape (nel, 34, 34): the Hessian of Pi.
 
         ``K[(a,i),(b,k)] = int mu d_ik grad phi_a . grad phi_b
         + (mu + p J) b_ak b_bi - p J b_ai b_bk``, with the spatial gradients
         ``b_a = F^{-T} grad phi_a``, and ``K[(a,i), c] = -int J b_ai psi_c``.
-
-        ``out`` (nel, 34, 34) and ``work`` (nel, 30, 30) are optional
-        preallocated arrays (reused by :meth:`tangent`: first-touch page
-        faults on fresh 100 MB arrays cost more than the arithmetic here).
+        (:meth:`tangent` assembles the same blocks without forming these.)
         """
-        F, p = self._fields(w, elements)
-        J, Finv = det_inv(F)
-        nel, nq = J.shape
         sel = slice(None) if elements is None else elements
-        dphi = self.dphi[sel]
-        bs = np.matmul(dphi, Finv).reshape(nel, nq, 30)  # b_ai = dphi_am Finv_mi
-        wq = self.dx[sel]
-        pJ = p * J
-        K = np.empty((nel, 34, 34)) if out is None else out
-        Y = np.empty((nel, 30, 30)) if work is None else work
-        Kuu = K[:, :30, :30].reshape(nel, 10, 3, 10, 3)  # a view: written in place
-        c2 = (wq * (self.mu + pJ))[..., None] * bs
-        np.matmul(c2.transpose(0, 2, 1), bs, out=Y)
-        # (e, a, i, b, k) <- (e, a, k, b, i)
-        np.copyto(Kuu, Y.reshape(nel, 10, 3, 10, 3).transpose(0, 1, 4, 3, 2))
-        c3 = (wq * pJ)[..., None] * bs
-        np.matmul(c3.transpose(0, 2, 1), bs, out=Y)
-        Kuu -= Y.reshape(nel, 10, 3, 10, 3)
+        nel = len(self.dx[sel])
+        Kb, Kpu = np.empty((nel, 10, 10, 3, 3)), np.empty((nel, 4, 10, 3))
+        self._element_blocks(w, sel, Kb, Kpu)
         lap = self.mu * self._lap[sel]
         for i in range(3):
-            Kuu[:, :, i, :, i] += lap
-        K[:, 30:, 30:] = 0.0
-        Kup = -np.matmul(((wq * J)[..., None] * bs).transpose(0, 2, 1), self.phi1[sel])
-        K[:, :30, 30:] = Kup
-        K[:, 30:, :30] = Kup.transpose(0, 2, 1)
+            Kb[:, :, :, i, i] += lap
+        K = np.zeros((nel, 34, 34))
+        K[:, :30, :30] = Kb.transpose(0, 1, 3, 2, 4).reshape(nel, 30, 30)
+        K[:, 30:, :30] = Kpu.reshape(nel, 4, 30)
+        K[:, :30, 30:] = K[:, 30:, :30].transpose(0, 2, 1)
         return K
+
+    def _buffers(self):
+        """Work arrays shared by all problems on this mesh (stretched copies
+        too; problems are used one at a time within a process): the element
+        blocks ``Kb``, ``Kpu`` and the summed blocks ``V = [Guu | Gup | 0]``.
+        Fresh 100 MB arrays at every tangent would cost more in page faults
+        than the arithmetic, hence the reuse."""
+        if "tangent" not in self._workspace:
+            nel = len(self.dx)
+            n_uu, n_up = self._sum_uu.shape[0], self._sum_up.shape[0]
+            self._workspace["tangent"] = (np.empty((nel, 10, 10, 3, 3)), np.empty((nel, 4, 10, 3)),
+                                          np.zeros(9 * n_uu + 3 * n_up + 1))
+        return self._workspace["tangent"]
+
+    def _gather(self, Guu, Gup):
+        """Free-free CSR data from the summed node-node blocks ``Guu``
+        (n_uu, 9) and node-vertex blocks ``Gup`` (n_up, 3)."""
+        V = np.concatenate([Guu.ravel(), Gup.ravel(), [0.0]])
+        return np.take(V, self._gather_ff)
+
+    def _constant_blocks(self, block):
+        """Summed node-node blocks ``block_ab d_ik`` for element matrices
+        ``block`` (nel, 10, 10), shape (n_uu, 9)."""
+        g = self._sum_uu @ block.reshape(-1)
+        return g[:, None] * np.eye(3).ravel()
+
+    def _tangent_constant(self):
+        """Summed blocks of the constant part ``mu d_ik int grad phi_a .
+        grad phi_b`` of the tangent (computed once per problem)."""
+        if "tangent" not in self._constants:
+            self._constants["tangent"] = self._constant_blocks(self.mu * self._lap)
+        return self._constants["tangent"]
+
+    @property
+    def mass_data(self):
+        """Displacement mass matrix ``d_ik int phi_a phi_b`` as data on the
+        tangent's pattern (the pseudo-transient shift; computed on first use)."""
+        if "mass" not in self._constants:
+            mass = np.einsum("eq,eqa,eqb->eab", self.dx, self.phi2, self.phi2)
+            Guu = self._constant_blocks(mass)
+            self._constants["mass"] = self._gather(Guu, np.zeros((self._sum_up.shape[0], 3)))
+        return self._constants["mass"]
 
     def tangent(self, w):
         """Reduced tangent ``K_ff`` (free dofs) as a CSR matrix.
 
         Its sparsity pattern is fixed for the problem's lifetime, and the zero
-        diagonal entries of the pressure block are stored explicitly.
+        diagonal entries of the pressure block are stored explicitly.  The
+        element blocks are computed on chunks of elements in threads (numpy
+        releases the GIL), summed per global block pair (node-node 3 x 3 and
+        node-vertex 3 x 1) with two sparse products, and gathered into the
+        free-dof CSR data; the constant part is added to the summed blocks.
         """
-        # work arrays shared by all problems on this mesh (stretched copies too);
-        # problems are used one at a time within a process
-        if "tangent" not in self._workspace:
-            nel = len(self.dx)
-            self._workspace["tangent"] = (np.empty((nel, 34, 34)), np.empty((nel, 30, 30)))
-        Kb, Yb = self._workspace["tangent"]
-        chunks = _element_chunks(len(self.dx))
+        Kb, Kpu, V = self._buffers()
+        nel = len(self.dx)
+        chunks = _element_chunks(nel)
         if len(chunks) == 1:
-            self.element_matrices(w, out=Kb, work=Yb)
-        else:  # numpy's kernels release the GIL: one chunk of elements per core
-            futures = [_pool().submit(self.element_matrices, w, sl, Kb[sl], Yb[sl])
+            self._element_blocks(w, chunks[0], Kb, Kpu)
+        else:
+            futures = [_pool().submit(self._element_blocks, w, sl, Kb[sl], Kpu[sl])
                        for sl in chunks]
             for f in futures:
                 f.result()
-        Ke = Kb.ravel()
-        data = self._scatter_ff @ Ke
+        n_uu = self._sum_uu.shape[0]
+        Guu, Gup = V[: 9 * n_uu].reshape(n_uu, 9), V[9 * n_uu:-1].reshape(-1, 3)
+        Guu[...] = self._tangent_constant()
+        _add_product(self._sum_uu, Kb.reshape(nel * 100, 9), Guu)
+        Gup[...] = 0.0
+        _add_product(self._sum_up, Kpu.reshape(nel * 40, 3), Gup)
         nf = self.n_free
-        return sp.csr_matrix((data, self._indices_ff, self._indptr_ff), shape=(nf, nf))
+        return sp.csr_matrix((np.take(V, self._gather_ff), self._indices_ff, self._indptr_ff),
+                             shape=(nf, nf))
 
     def clamp_coupling(self, w):
         """``K_fc``: free rows, clamped columns (``clamp_dofs``; only the
@@ -380,13 +446,6 @@ def _discretization(mesh: SheetMesh, quadrature_order: int) -> dict:
     fg = np.zeros(self.ndof)
     np.add.at(fg, 3 * en + 2, np.einsum("eq,eqa->ea", w, self.phi2))
     self.gravity_load = fg  # d/dg of the residual
-    # displacement mass matrix on the tangent's pattern (pseudo-transient shift)
-    mass = np.einsum("eq,eqa,eqb->eab", w, self.phi2, self.phi2)
-    Me = np.zeros((len(w), 34, 34))
-    Mv = Me[:, :30, :30].reshape(len(w), 10, 3, 10, 3)
-    for i in range(3):
-        Mv[:, :, i, :, i] = mass
-    self.mass_data = self._scatter_ff @ Me.ravel()
     self.volume0 = float(w.sum())
     self._workspace = {}  # reused work arrays (see SheetProblem.tangent)
 
@@ -442,9 +501,9 @@ def _scatter(slots, entries, n_slots, n_entries):
 
 
 def _build_pattern(self):
-    """CSR patterns of the free-free and free-clamped blocks and the scatter
-    operators from element matrices into them (assembly is one sparse
-    mat-vec).
+    """CSR patterns of the free-free and free-clamped blocks and the operators
+    that assemble element matrices into them (:func:`_block_assembly` for the
+    free-free block, a dof-level scatter for the small free-clamped one).
 
     The free-free pattern is found at the level of *blocks* (a P2 node with its
     free displacement components, or a P1 vertex with its pressure): the
@@ -453,7 +512,7 @@ def _build_pattern(self):
     structurally zero and left out, except the diagonal, which is stored as
     explicit zeros for the symmetric-indefinite solvers.
     """
-    nel, nd = self.edofs.shape
+    nel = len(self.edofs)
     nn, n = self.n_nodes, self.ndof
     red = np.full(n, -1, dtype=np.int64)
     red[self.free] = np.arange(len(self.free))
@@ -461,7 +520,6 @@ def _build_pattern(self):
     # blocks: node k -> k, vertex c -> nn + c; dof -> (block, component)
     nb = nn + self.n_vertices
     dof_block = np.concatenate([np.repeat(np.arange(nn), 3), nn + np.arange(self.n_vertices)])
-    dof_comp = np.concatenate([np.tile(np.arange(3), nn), np.zeros(self.n_vertices, np.int64)])
     is_free = red >= 0
     # free components of each block, and each free dof's rank among them
     nfree_block = np.bincount(dof_block, weights=is_free, minlength=nb).astype(np.int64)
@@ -480,7 +538,6 @@ def _build_pattern(self):
     keys[~keep] = -1
     ukeys, binv = np.unique(keys, return_inverse=True)
     binv = binv.reshape(nel, nbe, nbe)
-    has_minus = ukeys[0] < 0
     bA, bB = np.divmod(ukeys, nb)
     # offset of each block column inside its block row, counted in free dofs
     width = nfree_block[bB]
@@ -504,21 +561,104 @@ def _build_pattern(self):
     seg_start[bA[starts]] = cum[starts] - cum[ok][0]
     src = np.repeat(seg_start[fb] - indptr[:-1], counts) + np.arange(indptr[-1])
     indices = colseq[src]
-    # slot of every element-matrix entry (or -1)
-    loc = np.concatenate([np.repeat(np.arange(10), 3), 10 + np.arange(4)])  # dof -> block
-    rows = red[self.edofs]  # (nel, 34)
-    cr = rank[self.edofs]
-    base = np.where(rows >= 0, indptr[:-1][np.maximum(rows, 0)], -1)
-    pair = binv[:, loc][:, :, loc]  # (nel, 34, 34) block pair of every entry
-    slot = base[:, :, None] + blk_off[pair] + cr[:, None, :]
-    valid = (rows[:, :, None] >= 0) & (cr[:, None, :] >= 0)
-    if has_minus:
-        valid &= pair != 0
-    entries = np.flatnonzero(valid.ravel())
-    self._scatter_ff = _scatter(slot.ravel()[entries], entries, indptr[-1], nel * nd * nd)
+    _block_assembly(self, ukeys, binv, blk_off, indptr, red, rank)
     self._indptr_ff = indptr.astype(np.int32)
     self._indices_ff = indices.astype(np.int32)
     _build_clamp_pattern(self, red)
+
+
+def _add_product(S, X, Y):
+    """``Y += S @ X`` for a CSR matrix ``S`` and C-contiguous ``X``, ``Y``,
+    written into ``Y`` (scipy's own kernel; ``S @ X`` would allocate a fresh
+    result, whose page faults cost as much as the product at these sizes)."""
+    if not (X.flags.c_contiguous and Y.flags.c_contiguous):
+        raise ValueError("_add_product needs C-contiguous X and Y")
+    try:
+        from scipy.sparse._sparsetools import csr_matvecs
+    except ImportError:  # a scipy without the private kernel: same result, one copy
+        Y += S @ X
+        return
+    csr_matvecs(S.shape[0], S.shape[1], X.shape[1], S.indptr, S.indices, S.data,
+                X.ravel(), Y.ravel())
+
+
+def _sum_operator(rows, n_rows):
+    """Sparse 0/1 matrix summing the entries (columns) into ``rows``: one
+    entry per column, built as CSC (no sorting) and turned into CSR by
+    scipy's linear-time transpose."""
+    n = len(rows)
+    itype = np.int32 if max(n, n_rows) < 2 ** 31 else np.int64
+    S = sp.csc_matrix((np.ones(n), rows.astype(itype), np.arange(n + 1, dtype=itype)),
+                      shape=(n_rows, n))
+    return S.tocsr()
+
+
+def _block_assembly(self, ukeys, binv, blk_off, indptr, red, rank):
+    """Operators of the tangent's assembly (see :meth:`SheetProblem.tangent`).
+
+    The element blocks are summed per global block pair, node-node pairs
+    (``_sum_uu``: element block (e, a, b) -> pair) and node-vertex pairs
+    (``_sum_up``: element block (e, c, a) -> pair), and the free-dof CSR data
+    is a gather from the summed blocks (``_gather_ff``: for every entry of the
+    pattern, its index in ``[Guu.ravel(), Gup.ravel(), 0]``).  Vertex-node
+    entries read their node-vertex partner (the tangent is symmetric) and the
+    pressure diagonal reads the trailing zero.  Working on blocks instead of
+    the 34 x 34 entries of every element makes the operators ten times
+    smaller than a dof-level scatter.
+
+    The position of the entry (row dof r, column dof c) of a pair is
+    ``indptr[r] + blk_off[pair] + rank[c]`` (the row's first entry, the offset
+    of the column's block in that row, the column's rank in its block).
+    """
+    nn, nb = self.n_nodes, self.n_nodes + self.n_vertices
+    nnz = int(indptr[-1])
+    start = indptr[:-1]
+    bA, bB = np.divmod(ukeys, nb)
+    ok = ukeys >= 0
+    uu = ok & (bA < nn) & (bB < nn)
+    up = ok & (bA < nn) & (bB >= nn)
+    pu = ok & (bA >= nn) & (bB < nn)
+    pp = ok & (bA >= nn) & (bB >= nn)  # the diagonal only
+    uu_index, up_index = np.cumsum(uu) - 1, np.cumsum(up) - 1
+    n_uu, n_up = int(uu.sum()), int(up.sum())
+    self._sum_uu = _sum_operator(uu_index[binv[:, :10, :10]].ravel(), n_uu)
+    self._sum_up = _sum_operator(up_index[binv[:, :10, 10:].transpose(0, 2, 1)].ravel(), n_up)
+
+    comp = np.arange(3)
+    zero = 9 * n_uu + 3 * n_up
+    src = np.full(nnz, -1, dtype=np.int64)
+
+    def rows_of(dofs):
+        r = red[dofs]
+        return r >= 0, start[np.maximum(r, 0)]
+
+    # node-node: row (A, i), column (B, k) <- Guu[pair, 3 i + k]
+    u = np.flatnonzero(uu)
+    rok, r0 = rows_of(3 * bA[u, None] + comp)
+    ck = rank[3 * bB[u, None] + comp]
+    pos = r0[:, :, None] + blk_off[u, None, None] + ck[:, None, :]
+    valid = rok[:, :, None] & (ck >= 0)[:, None, :]
+    val = 9 * uu_index[u, None, None] + 3 * comp[:, None] + comp
+    src[pos[valid]] = val[valid]
+    # node-vertex: row (A, i), column C <- Gup[pair, i]
+    u = np.flatnonzero(up)
+    rok, r0 = rows_of(3 * bA[u, None] + comp)
+    pos = r0 + blk_off[u, None]
+    src[pos[rok]] = (9 * n_uu + 3 * up_index[u, None] + comp)[rok]
+    # vertex-node: row C, column (A, k) <- Gup[partner, k]
+    u = np.flatnonzero(pu)
+    partner = np.searchsorted(ukeys, bB[u] * nb + bA[u])
+    _, r0 = rows_of(self.nu_dof + bA[u] - nn)
+    ck = rank[3 * bB[u, None] + comp]
+    pos = r0[:, None] + blk_off[u, None] + ck
+    src[pos[ck >= 0]] = (9 * n_uu + 3 * up_index[partner, None] + comp)[ck >= 0]
+    # pressure diagonal: explicit zero
+    u = np.flatnonzero(pp)
+    _, r0 = rows_of(self.nu_dof + bA[u] - nn)
+    src[r0 + blk_off[u]] = zero
+    if (src < 0).any():
+        raise AssertionError("block assembly does not cover the sparsity pattern")
+    self._gather_ff = src  # intp: numpy's take would convert int32 at every call
 
 
 def _build_clamp_pattern(self, red):

@@ -183,3 +183,23 @@ def test_both_branches_are_reported_stable():
             pytest.skip("this linear solver does not report the inertia")
         assert r.stable and r.negative_eigenvalues == 0
         assert r.summary()["stable"] is True
+
+
+def test_timings_count_every_factorisation_and_solve():
+    """The Newton statistics must account for all the linear-solver work of a
+    path, including the factorisation at the start of each phase (it was once
+    left out, which made 10% of a solve look like time outside the solver)."""
+    from skfem_sheet.continuation import follow_path
+    from skfem_sheet.linalg import make_linear_solver
+    from skfem_sheet.newton import Stats
+    from skfem_sheet.solve import _problem
+
+    sheet = Sheet(length=0.8, curvature=2.5)
+    problem = _problem(sheet, 0.2, None, 2, half=True)
+    solver = make_linear_solver("superlu")
+    stats = Stats()
+    out = follow_path(problem, "curvature-first", sheet.curvature, solver, stats=stats)
+    assert out.converged
+    assert stats.factorizations == solver.n_factorizations
+    assert stats.linear_solve_s >= solver.factor_time + solver.solve_time
+    assert stats.linear_solve_s <= 1.5 * (solver.factor_time + solver.solve_time) + 0.05
