@@ -209,25 +209,40 @@ class SheetProblem:
         return F, p
 
     # -- residual, tangent, energy ------------------------------------------
+    def _element_residuals(self, w, sel, R):
+        """Element residuals of the elements ``sel`` written into ``R`` (n, 34):
+        ``int P_ij dphi_aj`` for the displacement dofs and ``-int (J - 1) psi_c``
+        for the pressure dofs.  Returns the smallest ``det F``."""
+        F, p = self._fields(w, sel)
+        P, J, _ = first_piola(F, p, self.mu)
+        wq = self.dx[sel]
+        # ru_ai = sum_q w_q dphi_aj P_ij (batched matmul, then the sum over q)
+        ru = np.matmul(self.dphi[sel], (wq[..., None, None] * P).transpose(0, 1, 3, 2)).sum(1)
+        R[:, :30] = ru.reshape(len(wq), 30)
+        R[:, 30:] = -np.einsum("eq,eqc->ec", wq * (J - 1.0), self.phi1[sel])
+        return float(J.min())
+
     def residual(self, w, g):
         """Full residual vector ``dPi/dw`` at gravity factor ``g``.
 
         Returns ``(r, Jmin)`` where ``Jmin`` is the smallest ``det F`` over
         quadrature points (``<= 0`` means an inverted element; then ``r`` is
-        meaningless and filled with NaN).
+        meaningless and filled with NaN).  The element residuals are computed
+        on chunks of elements in threads, like the tangent.
         """
-        F, p = self._fields(w)
-        P, J, _ = first_piola(F, p, self.mu)
-        Jmin = float(J.min())
+        nel = len(self.dx)
+        if "residual" not in self._workspace:
+            self._workspace["residual"] = np.empty((nel, 34))
+        R = self._workspace["residual"]
+        chunks = _element_chunks(nel)
+        if len(chunks) == 1:
+            Jmin = self._element_residuals(w, chunks[0], R)
+        else:
+            futures = [_pool().submit(self._element_residuals, w, sl, R[sl]) for sl in chunks]
+            Jmin = float(np.min([f.result() for f in futures]))  # NaN propagates
         if not Jmin > 0:
             return np.full(self.ndof, np.nan), Jmin
-        wq = self.dx
-        # ru_ai = sum_q w_q dphi_aj P_ij (batched matmul, then the sum over q)
-        ru = np.matmul(self.dphi, (wq[..., None, None] * P).transpose(0, 1, 3, 2)).sum(1)
-        ru = ru.reshape(len(wq), 30)
-        rp = -np.einsum("eq,eqc->ec", wq * (J - 1.0), self.phi1)
-        r = np.bincount(self.edofs.ravel(), weights=np.hstack([ru, rp]).ravel(),
-                        minlength=self.ndof)
+        r = np.bincount(self.edofs.ravel(), weights=R.ravel(), minlength=self.ndof)
         r += g * self.gravity_load
         return r, Jmin
 

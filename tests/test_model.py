@@ -202,7 +202,18 @@ def test_threaded_tangent_equals_serial(monkeypatch):
     w[pb.nu_dof:] = 0.1 * rng.standard_normal(pb.ndof - pb.nu_dof)
     monkeypatch.setattr(model, "_THREAD_MIN_ELEMENTS", 10**9)
     serial = pb.tangent(w).toarray()
+    r_serial, j_serial = pb.residual(w, 0.7)
     monkeypatch.setattr(model, "_THREAD_MIN_ELEMENTS", 1)
     monkeypatch.setattr(model, "_threads", lambda: 3)
     assert len(model._element_chunks(len(pb.dx))) == 3
     assert np.array_equal(pb.tangent(w).toarray(), serial)
+    r, j = pb.residual(w, 0.7)
+    assert np.array_equal(r, r_serial) and j == j_serial
+    # a NaN in the last chunk only is not hidden by the other chunks' Jmin
+    last = model._element_chunks(len(pb.dx))[-1]
+    others = np.unique(pb.element_nodes[: last.start])
+    node = np.setdiff1d(pb.element_nodes[last], others)[0]
+    w_bad = w.copy()
+    w_bad[3 * node] = np.nan
+    r, j = pb.residual(w_bad, 0.7)
+    assert not j > 0 and np.isnan(r).all()
