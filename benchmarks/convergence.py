@@ -35,6 +35,11 @@ Reported:
   unrefined): the paper's claims are an order of about 2 and hmax = 0.03
   within 1%.
 
+Where the error turns (two error terms of opposite sign, as on this case down
+to the finest meshes that fit here), no three-mesh order exists; run this for
+two or more base meshes and fit them together with
+``benchmarks/convergence_fit.py`` (two-term expansion, cross-validated).
+
 Each solve runs in a fresh process (peak memory per solve).  The JSON file is
 rewritten after every solve; a rerun skips finished solves (``--force`` redoes
 them).  A PNG plot shows d against h and the log-log error with the fitted
@@ -305,6 +310,9 @@ def main(argv=None):
                   f"rms residual {pl['rms']:.1e}")
     else:
         print("no extrapolated value; errors above are relative to the finest converged mesh")
+        if nested:
+            print("(a family that turns has two comparable error terms: fit several nested "
+                  "families at once with benchmarks/convergence_fit.py)")
     for w in a["warnings"]:
         print(f"WARNING: {w}")
 

@@ -110,6 +110,44 @@ def test_analyse_sequence_second_order():
     assert e[0] / e[2] == pytest.approx((FAMILY[0] / FAMILY[2]) ** 2, rel=0.05)
 
 
+# two nested families whose error terms have opposite signs (the shape the
+# session-4 data of the convergence case have): d = D + A h^2 + B h^3
+TWO_FAMILIES = [0.16, 0.08, 0.04, 0.12, 0.06, 0.03]
+D_TURN, A_TURN, B_TURN = -0.0768, 0.07, -0.5
+
+
+def turning(h, p=2.0):
+    return [D_TURN + A_TURN * x ** p + B_TURN * x ** (p + 1) for x in h]
+
+
+@pytest.mark.parametrize("p", [1.5, 2.0, 2.5])
+def test_two_term_fit_recovers_the_order_where_richardson_sees_none(p):
+    d = turning(TWO_FAMILIES, p)
+    # each family alone turns (error maximal near h = 2A / 3|B| = 0.09): no order
+    for fam in (slice(0, 3), slice(3, 6)):
+        with pytest.raises(ValueError):
+            bench.richardson(TWO_FAMILIES[fam], d[fam])
+    f = bench.two_term_fit(TWO_FAMILIES, d)
+    assert f["order"] == pytest.approx(p, abs=1e-6)
+    assert f["extrapolated"] == pytest.approx(D_TURN, abs=1e-12)
+    assert f["A"] == pytest.approx(A_TURN, rel=1e-5) and f["B"] == pytest.approx(B_TURN, rel=1e-5)
+    assert f["rms"] < 1e-12
+
+
+def test_two_term_fit_with_noise_brackets_the_truth():
+    # noise of 5e-6 (Newton tolerance and round-off in the real data)
+    rng = np.random.default_rng(7)
+    d = np.array(turning(TWO_FAMILIES)) + 5e-6 * rng.standard_normal(6)
+    f = bench.two_term_fit(TWO_FAMILIES, d)
+    assert abs(f["order"] - 2.0) < 3 * f["order_se"] and f["order_se"] < 0.5
+    assert abs(f["extrapolated"] - D_TURN) < 3 * f["extrapolated_se"]
+
+
+def test_two_term_fit_needs_five_points():
+    with pytest.raises(ValueError, match="five"):
+        bench.two_term_fit(TWO_FAMILIES[:4], turning(TWO_FAMILIES[:4]))
+
+
 def test_analyse_sequence_is_honest_about_non_monotone_data():
     d = [0.60, 0.62, 0.61, 0.615, 0.612]
     a = bench.analyse_sequence(FAMILY, d)
@@ -183,14 +221,14 @@ def test_local_orders_mark_non_converging_triples():
     assert bench.local_orders(h[:2], [1.0, 1.1]) == []
 
 
-def _convergence_main():
+def _convergence_main(script="convergence.py"):
     import sys
 
     bench_dir = os.path.dirname(_PATH)
     if bench_dir not in sys.path:
         sys.path.insert(0, bench_dir)
-    spec = importlib.util.spec_from_file_location("bench_convergence",
-                                                  os.path.join(bench_dir, "convergence.py"))
+    spec = importlib.util.spec_from_file_location("bench_" + script[:-3],
+                                                  os.path.join(bench_dir, script))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod.main
@@ -220,3 +258,48 @@ def test_convergence_refuses_bad_options(argv, msg, capsys):
         main(argv + ["--dry-run"])
     assert exc.value.code == 2
     assert msg in capsys.readouterr().err
+
+
+def _family_file(path, base, d_of_h, check=None):
+    """A convergence.py --nested JSON file with the meshes base / 2^k."""
+    import json
+
+    runs = [dict(role="family", converged=True, layers=2 * 2 ** k, dofs=1000 * 8 ** k,
+                 deflection=d_of_h(base / 2 ** k), wall_time_s=1.0,
+                 spec=dict(hmax=base, refine=k)) for k in range(3)]
+    case = dict(length=1.8, tip_width=1.0, curvature=5.0, path="curvature-first",
+                solver="auto", mode="nested")
+    with open(path, "w") as f:
+        json.dump(dict(runs=runs, case=case, base_hmax=base, base_layers=2, check=check), f)
+    return str(path)
+
+
+def test_convergence_fit_of_two_turning_families(tmp_path, capsys):
+    """The fit script on two synthetic nested families that each turn (no
+    three-mesh order): it finds the order, the limit and the default's error."""
+    import json
+
+    def d_of_h(h):
+        return D_TURN + A_TURN * h ** 2 + B_TURN * h ** 3
+
+    check = dict(hmax=0.03, layers=2, deflection=D_TURN * 1.004)
+    files = [_family_file(tmp_path / "a.json", 0.16, d_of_h, check),
+             _family_file(tmp_path / "b.json", 0.12, d_of_h)]
+    out = tmp_path / "fit.json"
+    main = _convergence_main("convergence_fit.py")
+    assert main(files + ["--json", str(out)]) == 0
+    fit = json.loads(out.read_text())
+    assert fit["observed_order"] == pytest.approx(2.0, abs=1e-6)
+    assert fit["extrapolated"] == pytest.approx(D_TURN, abs=1e-12)
+    # d = 1.004 d_inf with d_inf < 0: 0.4% below the limit
+    assert fit["check"]["error_vs_extrapolated"] == pytest.approx(-0.004, rel=1e-9)
+    assert all(c["max_deviation"] < 1e-10 for c in fit["cross_validation"])
+    text = capsys.readouterr().out
+    assert "meets p >= 1.8" in text and "within 1%" in text
+
+
+def test_convergence_fit_refuses_too_few_meshes(tmp_path):
+    main = _convergence_main("convergence_fit.py")
+    one = _family_file(tmp_path / "a.json", 0.16, lambda h: 1.0 + h ** 2)
+    with pytest.raises(SystemExit, match="five or more"):
+        main([one])
