@@ -298,6 +298,23 @@ def test_convergence_fit_of_two_turning_families(tmp_path, capsys):
     assert "meets p >= 1.8" in text and "within 1%" in text
 
 
+def test_convergence_fit_says_when_the_order_is_not_determined(tmp_path, capsys):
+    # noise of 2e-5 on errors of 1e-4: the order's standard error is large
+    rng = np.random.default_rng(1)
+    noisy = {h: D_TURN + A_TURN * h ** 2 + B_TURN * h ** 3 + 2e-5 * rng.standard_normal()
+             for h in (0.16, 0.08, 0.04, 0.12, 0.06, 0.03, 0.14, 0.07, 0.035)}
+    files = [_family_file(tmp_path / f"{b}.json", b, noisy.__getitem__) for b in (0.16, 0.12, 0.14)]
+    out = tmp_path / "fit.json"
+    main = _convergence_main("convergence_fit.py")
+    assert main(files + ["--max-h", "0.12", "--json", str(out)]) == 0
+    import json
+
+    fit = json.loads(out.read_text())
+    assert fit["observed_order_se"] > 0.2 and fit["order_determined"] is False
+    assert max(fit["hmax"]) <= 0.12
+    assert "not determined" in capsys.readouterr().out
+
+
 def test_convergence_fit_refuses_too_few_meshes(tmp_path):
     main = _convergence_main("convergence_fit.py")
     one = _family_file(tmp_path / "a.json", 0.16, lambda h: 1.0 + h ** 2)
