@@ -148,27 +148,37 @@ def power_law_fit(h, d, orders=(0.1, 10.0)):
     >>> round(d_inf, 9), round(p, 6), round(C, 6)
     (2.0, 1.5, -3.0)
     """
-    from scipy.optimize import minimize_scalar
-
     h = np.asarray(h, dtype=float)
     d = np.asarray(d, dtype=float)
     if h.size < 3 or h.size != d.size:
         raise ValueError("power_law_fit needs at least three (h, d) pairs")
 
-    def solve_linear(p):
-        A = np.column_stack([np.ones_like(h), h ** p])
-        coef, *_ = np.linalg.lstsq(A, d, rcond=None)
-        return coef, float(np.sum((A @ coef - d) ** 2))
+    p, (d_inf, C), ssq = _profiled_order(
+        h, d, lambda p: np.column_stack([np.ones_like(h), h ** p]), orders, 400)
+    return float(d_inf), p, float(C), math.sqrt(ssq / h.size)
 
-    grid = np.linspace(orders[0], orders[1], 400)
+
+def _profiled_order(h, d, design, orders, n_grid):
+    """Least squares for a model that is linear in its coefficients once the
+    order ``p`` is fixed (``design(p)`` is its matrix): ``p`` minimises the
+    residual over ``orders``, on a grid and then by a bounded 1D search.
+    Returns ``(p, coefficients, residual sum of squares)``."""
+    from scipy.optimize import minimize_scalar
+
+    def solve_linear(p):
+        M = design(p)
+        coef, *_ = np.linalg.lstsq(M, d, rcond=None)
+        return coef, float(np.sum((M @ coef - d) ** 2))
+
+    grid = np.linspace(orders[0], orders[1], n_grid)
     res = [solve_linear(p)[1] for p in grid]
     k = int(np.argmin(res))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     opt = minimize_scalar(lambda p: solve_linear(p)[1], bounds=(lo, hi), method="bounded",
                           options=dict(xatol=1e-12))
     p = float(opt.x) if opt.fun <= res[k] else float(grid[k])
-    (d_inf, C), ssq = solve_linear(p)
-    return float(d_inf), p, float(C), math.sqrt(ssq / h.size)
+    coef, rss = solve_linear(p)
+    return p, coef, rss
 
 
 def two_term_fit(h, d, orders=(0.5, 5.0)):
@@ -196,8 +206,6 @@ def two_term_fit(h, d, orders=(0.5, 5.0)):
     >>> round(f["order"], 6), round(f["extrapolated"], 9), round(f["B"], 6)
     (2.0, -0.0768, -0.5)
     """
-    from scipy.optimize import minimize_scalar
-
     h = np.asarray(h, dtype=float)
     d = np.asarray(d, dtype=float)
     if h.size < 5 or h.size != d.size:
@@ -206,19 +214,7 @@ def two_term_fit(h, d, orders=(0.5, 5.0)):
     def design(p):
         return np.column_stack([np.ones_like(h), h ** p, h ** (p + 1)])
 
-    def solve_linear(p):
-        M = design(p)
-        coef, *_ = np.linalg.lstsq(M, d, rcond=None)
-        return coef, float(np.sum((M @ coef - d) ** 2))
-
-    grid = np.linspace(orders[0], orders[1], 451)
-    res = [solve_linear(p)[1] for p in grid]
-    k = int(np.argmin(res))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    opt = minimize_scalar(lambda p: solve_linear(p)[1], bounds=(lo, hi), method="bounded",
-                          options=dict(xatol=1e-12))
-    p = float(opt.x) if opt.fun <= res[k] else float(grid[k])
-    (d_inf, A, B), rss = solve_linear(p)
+    p, (d_inf, A, B), rss = _profiled_order(h, d, design, orders, 451)
     # Jacobian of the model in (d_inf, A, B, p)
     lh = np.log(h)
     J = np.column_stack([design(p), A * h ** p * lh + B * h ** (p + 1) * lh])
