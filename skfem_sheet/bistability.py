@@ -653,8 +653,9 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
                 break
             stats.factorizations += 1
             stats.newton_iterations += 1
+            rate = _timed(stats, "assembly_s", _residual_rate, prob, wk)
             a = _timed(stats, "linear_solve_s", track.solver.solve, -r[free])
-            b = _timed(stats, "linear_solve_s", track.solver.solve, _residual_rate(prob, wk)[free])
+            b = _timed(stats, "linear_solve_s", track.solver.solve, rate[free])
             tf = t_w[free]
             ta = theta * float(np.dot(tf[u_free], a[u_free])) + tf[tip_f] * a[tip_f]
             tb = theta * float(np.dot(tf[u_free], b[u_free])) + tf[tip_f] * b[tip_f]
