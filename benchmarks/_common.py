@@ -181,6 +181,13 @@ def _profiled_order(h, d, design, orders, n_grid):
     return p, coef, rss
 
 
+def two_term_design(h, p):
+    """Columns ``1, h^p, h^(p+1)`` of the two-term model: ``two_term_design(h, p)
+    @ [d_inf, A, B]`` is ``d_inf + A h^p + B h^(p+1)`` at the sizes ``h``."""
+    h = np.asarray(h, dtype=float)
+    return np.column_stack([np.ones_like(h), h ** p, h ** (p + 1)])
+
+
 def two_term_fit(h, d, orders=(0.5, 5.0)):
     """Least-squares fit of ``d = d_inf + A h^p + B h^(p+1)`` (the leading
     error term and the next one) to five or more meshes, with standard errors.
@@ -212,7 +219,7 @@ def two_term_fit(h, d, orders=(0.5, 5.0)):
         raise ValueError("two_term_fit needs at least five (h, d) pairs (four unknowns)")
 
     def design(p):
-        return np.column_stack([np.ones_like(h), h ** p, h ** (p + 1)])
+        return two_term_design(h, p)
 
     p, (d_inf, A, B), rss = _profiled_order(h, d, design, orders, 451)
     # Jacobian of the model in (d_inf, A, B, p)

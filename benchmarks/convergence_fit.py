@@ -38,7 +38,7 @@ import sys
 
 import numpy as np
 
-from _common import two_term_fit
+from _common import two_term_design, two_term_fit
 
 TARGET_ORDER = 1.8
 TARGET_ERROR = 0.01
@@ -73,11 +73,11 @@ def cross_validate(families, p):
             continue
         h = np.array([m["h"] for m in meshes])
         d = np.array([m["deflection"] for m in meshes])
-        M = np.column_stack([np.ones_like(h), h ** p, h ** (p + 1)])
-        coef, *_ = np.linalg.lstsq(M, d, rcond=None)
+        coef, *_ = np.linalg.lstsq(two_term_design(h, p), d, rcond=None)
         others = [m for lab, ms in families if lab != label for m in ms]
-        dev = max((abs(coef[0] + coef[1] * m["h"] ** p + coef[2] * m["h"] ** (p + 1)
-                       - m["deflection"]) for m in others), default=math.nan)
+        dev = (float(np.max(np.abs(two_term_design([m["h"] for m in others], p) @ coef
+                                   - [m["deflection"] for m in others])))
+               if others else math.nan)
         out.append(dict(family=label, extrapolated=float(coef[0]), max_deviation=float(dev)))
     return out
 
@@ -91,7 +91,8 @@ def plot(png, families, fit, check):
     p, D, A, B = fit["order"], fit["extrapolated"], fit["A"], fit["B"]
     hs = np.geomspace(0.02, 0.2, 200)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
-    ax1.plot(hs, D + A * hs ** p + B * hs ** (p + 1), "k-", lw=1,
+    curve = two_term_design(hs, p) @ [D, A, B]
+    ax1.plot(hs, curve, "k-", lw=1,
              label=f"fit: p = {p:.2f} ± {fit['order_se']:.2f}")
     ax1.axhline(D, color="k", ls=":", lw=1, label=f"d_inf = {D:.6f}")
     for (label, meshes), mk in zip(families, "osD^v"):
@@ -101,7 +102,7 @@ def plot(png, families, fit, check):
     if check:
         ax1.plot([check["hmax"]], [check["deflection"]], "x", ms=9,
                  label=f"default hmax {check['hmax']:g}")
-    ax2.loglog(hs, np.abs(A * hs ** p + B * hs ** (p + 1)), "k-", lw=1, label="fitted error")
+    ax2.loglog(hs, np.abs(curve - D), "k-", lw=1, label="fitted error")
     ax2.loglog(hs, abs(A) * hs ** p, "k--", lw=0.8, label=f"leading term A h^{p:.2f}")
     from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
 
