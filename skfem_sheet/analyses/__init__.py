@@ -1,0 +1,5 @@
+"""Analyses of a solved state: stability (inertia), observables, transfer between meshes.
+
+Layer 7: below the continuation engine, load paths and ``solve``; uses the
+problem, the linear solvers and Newton only.
+"""
