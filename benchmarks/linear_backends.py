@@ -60,7 +60,7 @@ SUPERLU_MIN_HMAX = 0.05  # superlu takes many minutes per system below this (as 
 def _record(spec, outdir):
     from skfem_sheet import Sheet
     from skfem_sheet.linalg import make_linear_solver
-    from skfem_sheet.model import SheetProblem
+    from skfem_sheet.problem import SheetProblem
 
     solve_module = importlib.import_module("skfem_sheet.solve")
     os.makedirs(outdir, exist_ok=True)
@@ -158,7 +158,7 @@ def _replay(spec, sysdir, out):
     from skfem_sheet import Sheet
     from skfem_sheet.linalg import LinearSolverError, make_linear_solver
     from skfem_sheet.mesh import sheet_mesh
-    from skfem_sheet.model import SheetProblem
+    from skfem_sheet.problem import SheetProblem
 
     with open(os.path.join(sysdir, "meta.json")) as f:
         meta = json.load(f)

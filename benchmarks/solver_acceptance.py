@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from skfem_sheet import Sheet, solve
-from skfem_sheet.observables import midline_heights
+from skfem_sheet.analyses.observables import midline_heights
 from skfem_sheet.reduced import elastica
 
 CASES = [

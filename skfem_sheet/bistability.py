@@ -10,7 +10,7 @@ the three form an S-shaped curve of ``d`` against ``L`` whose turning points
 
 How the length is made a continuous parameter: a problem built on a mesh of
 length ``L_m`` is stretched in x to any nearby length
-(:meth:`skfem_sheet.model.SheetProblem.with_length`), so one mesh topology
+(:meth:`skfem_sheet.problem.SheetProblem.with_length`), so one mesh topology
 carries the nodal solution from one length to the next; beyond a stretch of
 1.35 the sheet is remeshed at the current length and the solution is
 interpolated onto the new mesh (:func:`transfer`).
@@ -39,13 +39,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .analyses.observables import midline_nodes, tip_deflection
+from .analyses.stability import stability
 from .continuation import follow_path
 from .linalg import LinearSolverError, make_linear_solver
 from .mesh import sheet_mesh
-from .model import SheetProblem
-from .newton import NewtonOptions, Stats, _timed, newton
-from .observables import tip_deflection
+from .newton import NewtonOptions, Stats, newton, timed
 from .params import ParameterError, Sheet, check_range
+from .problem import SheetProblem
 
 __all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
            "follow_length", "follow_curvature", "fold_lengths", "s_curve", "add_bistability_subparser"]
@@ -115,26 +116,6 @@ class Branch(_Curve):
 # ----------------------------------------------------------------------------
 # kernels: stability, transfer between meshes, derivative in L
 # ----------------------------------------------------------------------------
-def stability(problem, solver):
-    """``(stable, n_negative)`` from the inertia of the last factorised tangent.
-
-    The reduced tangent ``[[A, B^T], [B, 0]]`` with ``m`` free pressure dofs
-    (``B`` of full rank) has ``m + k`` negative eigenvalues, where ``k`` is the
-    number of negative eigenvalues of ``A`` on the incompressible subspace
-    ``ker B`` (Sylvester's law of inertia on the null-space decomposition).
-    The equilibrium is stable iff ``k = 0`` and no eigenvalue vanishes.
-    Returns ``(None, None)`` if the back-end does not report the inertia.
-    """
-    inertia = getattr(solver, "inertia", None)
-    inertia = inertia() if inertia is not None else None
-    if inertia is None:
-        return None, None
-    _, n_neg, n_zero = inertia
-    m = int(np.count_nonzero(problem.free >= problem.nu_dof))
-    k = int(n_neg) - m
-    return bool(k == 0 and n_zero == 0), k
-
-
 def transfer(old, w_old, new):
     """Interpolate a state from problem ``old`` onto problem ``new``.
 
@@ -605,7 +586,6 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     free = problem.free
     u_free = free < nu
     theta = 1.0 / np.count_nonzero(u_free)
-    from .observables import midline_nodes
 
     tip_nodes = midline_nodes(problem, problem.length)
     tip = 3 * tip_nodes[np.argmin(np.abs(problem.nodes[tip_nodes, 1]))] + 2
@@ -641,21 +621,21 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
         wk, Lk = w_p.copy(), L_p
         for its in range(1, opts.max_iterations + 1):
             prob = track.at(Lk)
-            r, Jmin = _timed(stats, "assembly_s", prob.residual, wk, 1.0)
+            r, Jmin = timed(stats, "assembly_s", prob.residual, wk, 1.0)
             if not Jmin > 0:
                 break
             N = dot(t_w, wk - w) + t_L * (Lk - L) - h
             rn = float(np.linalg.norm(r[free]))
-            K = _timed(stats, "assembly_s", prob.tangent, wk)
+            K = timed(stats, "assembly_s", prob.tangent, wk)
             try:
-                _timed(stats, "linear_solve_s", track.solver.factorize, K, wk)
+                timed(stats, "linear_solve_s", track.solver.factorize, K, wk)
             except LinearSolverError:
                 break
             stats.factorizations += 1
             stats.newton_iterations += 1
-            rate = _timed(stats, "assembly_s", _residual_rate, prob, wk)
-            a = _timed(stats, "linear_solve_s", track.solver.solve, -r[free])
-            b = _timed(stats, "linear_solve_s", track.solver.solve, rate[free])
+            rate = timed(stats, "assembly_s", _residual_rate, prob, wk)
+            a = timed(stats, "linear_solve_s", track.solver.solve, -r[free])
+            b = timed(stats, "linear_solve_s", track.solver.solve, rate[free])
             tf = t_w[free]
             ta = theta * float(np.dot(tf[u_free], a[u_free])) + tf[tip_f] * a[tip_f]
             tb = theta * float(np.dot(tf[u_free], b[u_free])) + tf[tip_f] * b[tip_f]

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .linalg import LinearSolverError
-from .newton import NewtonOptions, Stats, _timed, newton, pseudo_transient
+from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
 
 __all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
@@ -134,8 +134,8 @@ def _tangent_predictor(problem, w, dkappa, dg, kappa, solver, stats):
         dw[clamp] = dkappa * problem.clamp_rate(kappa)
     rhs = -dg * problem.gravity_load[free]
     if dkappa:
-        rhs -= _timed(stats, "assembly_s", problem.clamp_coupling, w) @ dw[clamp]
-    dw[free] = _timed(stats, "linear_solve_s", solver.solve, rhs)
+        rhs -= timed(stats, "assembly_s", problem.clamp_coupling, w) @ dw[clamp]
+    dw[free] = timed(stats, "linear_solve_s", solver.solve, rhs)
     return dw
 
 
@@ -150,6 +150,7 @@ def elastica_state(problem, g):
     stepping from the flat state needs many small steps.
     Returns ``None`` if the elastica cannot be solved.
     """
+    # deferred: importing skfem_sheet.reduced costs ~0.2 s and only this guess needs it
     from .reduced.elastica import elastica
 
     sheet = problem.sheet
@@ -255,9 +256,9 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             k_new, g_new = load(lam_new)
             k_old, _ = load(lam)
             if not have_factor:
-                K = _timed(stats, "assembly_s", problem.tangent, w)
+                K = timed(stats, "assembly_s", problem.tangent, w)
                 try:
-                    _timed(stats, "linear_solve_s", solver.factorize, K, w)
+                    timed(stats, "linear_solve_s", solver.factorize, K, w)
                 except LinearSolverError as err:
                     out.reason = f"singular tangent at the start of the {name} phase ({err})"
                     return out

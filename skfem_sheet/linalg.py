@@ -3,7 +3,8 @@
 All back-ends share one small interface::
 
     solver = make_linear_solver("auto")
-    solver.attach(problem)   # problem data (dof layout, nodes); needed by pyamg
+    if solver.needs_layout:  # pyamg: the saddle-point structure of K
+        solver.attach(layout)  # a SaddlePointLayout (SheetProblem.saddle_point_layout())
     solver.factorize(K, state=w)  # K: CSR, same sparsity pattern at every call;
                                   # w (optional): the state K was formed at
     x = solver.solve(b)      # b: (n,) or (n, k)
@@ -32,7 +33,7 @@ zero pressure block.  Back-ends:
     near-null space, energy-minimising prolongation) and ``M_p / mu``, the
     pressure mass matrix over the shear modulus, stands in for the Schur
     complement.  No factorisation of the whole system: for meshes too big to
-    factor.  Needs :meth:`PyAMGSolver.attach`, and converges 2-5x faster on
+    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`), and converges 2-5x faster on
     a drooped sheet when ``factorize`` gets the state (the near-null space is
     then that of the deformed sheet).  About 4-5x slower than PARDISO on this
     thin sheet at hmax 0.08 (see ``benchmarks/linear_backends.py``); no
@@ -42,15 +43,20 @@ zero pressure block.  Back-ends:
 """
 from __future__ import annotations
 
+import importlib.metadata as md
+import os
 import time
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.linalg import LinearOperator, splu
 
+from .discretisation import SaddlePointLayout
 from .params import ParameterError
 
 __all__ = ["make_linear_solver", "available_solvers", "SOLVERS", "LinearSolverError",
-           "PardisoSolver", "SuperLUSolver", "PyAMGSolver"]
+           "PardisoSolver", "SuperLUSolver", "PyAMGSolver", "SaddlePointLayout",
+           "near_null_space"]
 
 SOLVERS = ("auto", "pardiso", "superlu", "pyamg")
 
@@ -70,9 +76,6 @@ def _locate_mkl() -> None:
     in milliseconds.  Nothing is set if it is not found there (pypardiso then
     searches as usual) or if the user set the variable.
     """
-    import importlib.metadata as md
-    import os
-
     if "PYPARDISO_MKL_RT" in os.environ:
         return
     try:
@@ -91,7 +94,7 @@ def _locate_mkl() -> None:
 def _have_pardiso() -> bool:
     _locate_mkl()
     try:
-        import pypardiso  # noqa: F401
+        import pypardiso  # noqa: F401  (optional dependency: only probed)
     except (ImportError, OSError):
         return False
     return True
@@ -99,7 +102,7 @@ def _have_pardiso() -> bool:
 
 def _have_pyamg() -> bool:
     try:
-        import pyamg  # noqa: F401
+        import pyamg  # noqa: F401  (optional dependency: only probed)
     except ImportError:
         return False
     return True
@@ -153,6 +156,8 @@ def make_linear_solver(name: str = "auto", **options):
 
 class _Timed:
     name = "?"
+    #: Whether :meth:`attach` needs a :class:`SaddlePointLayout` before ``factorize``.
+    needs_layout = False
 
     def __init__(self):
         self.factor_time = 0.0
@@ -160,8 +165,8 @@ class _Timed:
         self.n_factorizations = 0
         self.n_solves = 0
 
-    def attach(self, problem):
-        """Problem data hook (unused by the direct solvers)."""
+    def attach(self, layout):
+        """Saddle-point structure hook (unused by the direct solvers)."""
 
     def inertia(self):
         """``(n_positive, n_negative, n_zero)`` of the last factorised matrix,
@@ -199,8 +204,6 @@ class SuperLUSolver(_Timed):
 
     @staticmethod
     def _splu(A, permc_spec):
-        from scipy.sparse.linalg import splu
-
         try:
             return splu(A, permc_spec=permc_spec, diag_pivot_thresh=0.0,
                         options=dict(SymmetricMode=True))
@@ -271,8 +274,6 @@ def _remember_mkl(ps):
     once makes later solvers (and sweep worker processes, which inherit the
     environment) load the library directly.
     """
-    import os
-
     name = getattr(ps.libmkl, "_name", None)
     if name and "PYPARDISO_MKL_RT" not in os.environ:
         os.environ["PYPARDISO_MKL_RT"] = name
@@ -295,7 +296,7 @@ class PardisoSolver(_Timed):
     def __init__(self):
         super().__init__()
         _locate_mkl()
-        from pypardiso import PyPardisoSolver
+        from pypardiso import PyPardisoSolver  # optional dependency (the fast extra)
 
         self._ps = PyPardisoSolver(mtype=-2)
         _remember_mkl(self._ps)
@@ -338,7 +339,7 @@ class PardisoSolver(_Timed):
 
     def factorize(self, K, state=None):
         """Numerical factorisation of ``K`` (``state`` is ignored)."""
-        from pypardiso.pardiso_wrapper import PyPardisoError
+        from pypardiso.pardiso_wrapper import PyPardisoError  # optional dependency
 
         t = time.perf_counter()
         U = self._upper(K)
@@ -439,45 +440,6 @@ def near_null_space(X, comp=None, bending=True, x=None, R=None):
     return B
 
 
-def nodal_rotations(problem, w):
-    """Polar rotation factor of ``F`` at each node of ``problem`` for state ``w``.
-
-    ``F`` is averaged over each element's quadrature points, then over the
-    elements around each node; ``R = U V^T`` from its SVD.  Returns
-    ``(n_nodes, 3, 3)``.
-
-    Examples
-    --------
-    >>> from skfem_sheet import Sheet
-    >>> from skfem_sheet.solve import _problem
-    >>> p = _problem(Sheet(length=0.5), 0.15, None, 2)
-    >>> w = np.zeros(p.ndof)
-    >>> w[: p.nu_dof] = (p.nodes @ (np.diag([-1.0, -1.0, 1.0]) - np.eye(3)).T).ravel()
-    >>> R = nodal_rotations(p, w)      # the sheet turned by 180 degrees about z
-    >>> np.allclose(R, np.diag([-1.0, -1.0, 1.0]))
-    True
-    """
-    from .model import kinematics
-
-    U, _ = problem.split(np.asarray(w, dtype=float))
-    en = problem.element_nodes
-    F = kinematics(U[en], problem.dphi)
-    dx = problem.dx
-    Fe = np.einsum("eq,eqij->eij", dx, F) / dx.sum(axis=1)[:, None, None]
-    nodes = en.ravel()
-    count = np.bincount(nodes, minlength=problem.n_nodes)
-    Fn = np.stack([np.bincount(nodes, np.repeat(Fe[:, i, j], en.shape[1]), problem.n_nodes)
-                   for i in range(3) for j in range(3)], axis=-1)
-    Fn = Fn.reshape(-1, 3, 3) / np.maximum(count, 1)[:, None, None]
-    u, _, vt = np.linalg.svd(Fn)
-    R = u @ vt
-    flip = np.linalg.det(R) < 0  # never for a valid state; keep R a rotation anyway
-    if np.any(flip):
-        u[flip, :, 2] *= -1
-        R[flip] = u[flip] @ vt[flip]
-    return R
-
-
 class PyAMGSolver(_Timed):
     """Block-preconditioned flexible GMRES with a pyamg hierarchy (no factorisation).
 
@@ -492,8 +454,8 @@ class PyAMGSolver(_Timed):
       solve on the coarsest level;
     - near-null space: the 6 rigid-body modes *of the deformed sheet* plus 3
       plate-bending modes rotated with the material
-      (:func:`near_null_space`, :func:`nodal_rotations`; pass the state to
-      :meth:`factorize`);
+      (:func:`near_null_space`, with the layout's nodal displacements and
+      rotations; pass the state to :meth:`factorize`);
     - ``S~ = M_p / mu``: the P1 pressure mass matrix over the shear modulus
       (``B A^-1 B^T ~ M_p / mu`` for incompressible elasticity; the
       eigenvalues of ``M_p^-1 S`` lie in ``[0.14, 1.5] / mu`` on the
@@ -550,11 +512,11 @@ class PyAMGSolver(_Timed):
     Examples
     --------
     >>> from skfem_sheet import Sheet
-    >>> from skfem_sheet.solve import _problem
-    >>> p = _problem(Sheet(length=0.5), 0.15, None, 2)
+    >>> from skfem_sheet.solve import build_problem
+    >>> p = build_problem(Sheet(length=0.5), 0.15, None, 2)
     >>> K = p.tangent(np.zeros(p.ndof))
     >>> s = PyAMGSolver(rtol=1e-8)
-    >>> s.attach(p); s.factorize(K, state=np.zeros(p.ndof))
+    >>> s.attach(p.saddle_point_layout()); s.factorize(K, state=np.zeros(p.ndof))
     >>> b = -p.gravity_load[p.free]
     >>> x = s.solve(b)
     >>> bool(np.linalg.norm(K @ x - b) <= 1e-8 * np.linalg.norm(b)), s.iterations[-1] < 60
@@ -562,6 +524,7 @@ class PyAMGSolver(_Timed):
     """
 
     name = "pyamg"
+    needs_layout = True
 
     def __init__(self, rtol=1e-6, maxiter=200, theta=0.02, reuse=True, rebuild_factor=1.5,
                  bending_modes=True, max_coarse=300):
@@ -587,51 +550,45 @@ class PyAMGSolver(_Timed):
         self._refreshed = False
         self._stale_retry = False
 
-    # -- problem data --------------------------------------------------------
-    def attach(self, problem):
-        """Dof layout, near-null space and pressure mass matrix of ``problem``.
+    # -- the saddle-point structure -------------------------------------------
+    def attach(self, layout):
+        """Take the dof layout, near-null-space data and Schur stand-in of the
+        systems to come.
 
-        Displacement dof ``3 node + component``, then pressure dofs
-        ``nu_dof + vertex``; ``problem.free`` is sorted, so the free
-        displacement dofs come first in ``K``.
+        Parameters
+        ----------
+        layout : SaddlePointLayout
+            Displacement unknowns first (node-wise components), then
+            pressures; ``layout.pressure_schur`` is factorised here.  An
+            object with a ``saddle_point_layout()`` method (a
+            :class:`~skfem_sheet.problem.SheetProblem`) is asked for its layout.
         """
-        from scipy.sparse.linalg import splu
-        from skfem import BilinearForm, asm
-
-        free = np.asarray(problem.free)
-        nu = int(np.count_nonzero(free < problem.nu_dof))
-        if not np.all(free[:nu] < problem.nu_dof):
-            raise ValueError("free dofs must be sorted: displacements first")
-        node, comp = np.divmod(free[:nu], 3)
+        if not isinstance(layout, SaddlePointLayout):
+            layout = layout.saddle_point_layout()
+        nu = layout.n_displacement
+        node, comp = layout.displacement_nodes, layout.displacement_components
         nodes = np.unique(node)
         pad = 3 * np.searchsorted(nodes, node) + comp
-        self._n, self._nu = len(free), nu
+        self._n, self._nu = layout.n_unknowns, nu
         self._npad = 3 * len(nodes)
         self._pad = None if self._npad == nu else pad
         self._padded_rows = pad
-        self._problem, self._nodes = problem, nodes
+        self._layout, self._nodes = layout, nodes
         self._state = None
-
-        @BilinearForm
-        def mass(p, q, w):
-            return p * q
-
-        vert = free[nu:] - problem.nu_dof
-        Mp = asm(mass, problem.basis_p).tocsr()[vert][:, vert] / problem.mu
-        self._schur = splu(sp.csc_matrix(Mp))
+        self._schur = splu(sp.csc_matrix(layout.pressure_schur))
         self._attached = True
         self._ml = None
         self._maps = None
 
     def _near_null_space(self):
         """Modes of the last state passed to :meth:`factorize` (reference if none)."""
-        p, nodes = self._problem, self._nodes
-        X = p.nodes[nodes]
+        lay, nodes = self._layout, self._nodes
+        X = lay.coordinates[nodes]
         x = R = None
         if self._state is not None:
-            x = X + p.split(self._state)[0][nodes]
+            x = X + lay.displacements(self._state)[nodes]
             if self.bending_modes:
-                R = nodal_rotations(p, self._state)[nodes]
+                R = lay.rotations(self._state)[nodes]
         B = np.zeros((self._npad, 9 if self.bending_modes else 6))
         B[self._padded_rows] = near_null_space(X, self._padded_rows, self.bending_modes, x, R)
         return B
@@ -677,7 +634,7 @@ class PyAMGSolver(_Timed):
     _POST = ("block_gauss_seidel", {"sweep": "symmetric"})
 
     def _setup(self, A):
-        import pyamg
+        import pyamg  # optional dependency
 
         self._ml = pyamg.smoothed_aggregation_solver(
             A, B=self._near_null_space(), strength=("symmetric", {"theta": self.theta}),
@@ -691,7 +648,7 @@ class PyAMGSolver(_Timed):
 
     def _refresh(self, A):
         """New operators on the old aggregates and prolongators."""
-        from pyamg.multilevel import coarse_grid_solver
+        from pyamg.multilevel import coarse_grid_solver  # optional dependency
         from pyamg.relaxation.smoothing import change_smoothers
 
         levels = self._ml.levels
@@ -718,7 +675,7 @@ class PyAMGSolver(_Timed):
         if state is not None:
             self._state = np.array(state, dtype=float)
         if not self._attached:
-            raise RuntimeError("the pyamg back-end needs solver.attach(problem) before factorize")
+            raise RuntimeError("the pyamg back-end needs solver.attach(layout) before factorize")
         t = time.perf_counter()
         try:
             if self._maps is None or not np.array_equal(self._maps["indices"], K.indices):
@@ -741,8 +698,6 @@ class PyAMGSolver(_Timed):
 
     # -- solve ---------------------------------------------------------------
     def _preconditioner(self):
-        from scipy.sparse.linalg import LinearOperator
-
         nu, npad, pad = self._nu, self._npad, self._pad
         cycle = self._ml.aspreconditioner(cycle="V")
         Bt, schur = self._Bt, self._schur
@@ -771,7 +726,7 @@ class PyAMGSolver(_Timed):
         so on a miss the iteration restarts from the current ``x`` with the
         recomputed residual (iterative refinement), within ``maxiter`` in all.
         """
-        from pyamg.krylov import fgmres
+        from pyamg.krylov import fgmres  # optional dependency
 
         nb = np.linalg.norm(b)
         x = np.zeros_like(b)

@@ -15,10 +15,12 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from .linalg import LinearSolverError
+from .params import check_range
 
-__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient"]
+__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient", "timed"]
 
 
 @dataclass(frozen=True)
@@ -44,8 +46,6 @@ class NewtonOptions:
     max_halvings: int = 6
 
     def __post_init__(self):
-        from .params import check_range
-
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
         check_range("utol", self.utol, 0, 1, lo_open=True)
         check_range("max_iterations", self.max_iterations, 1, 1000)
@@ -74,7 +74,10 @@ class NewtonResult:
     corrections: list = field(default_factory=list)  # max |du| of each iteration
 
 
-def _timed(stats, attr, fn, *args):
+def timed(stats, attr, fn, *args):
+    """``fn(*args)``, its wall time added to the counter ``stats.<attr>``
+    (e.g. ``"assembly_s"``, ``"linear_solve_s"`` of :class:`Stats`), also
+    when it raises."""
     t = time.perf_counter()
     try:
         return fn(*args)
@@ -90,7 +93,7 @@ def _admissible_step(problem, w, delta, g, max_halvings, stats):
     for _ in range(max_halvings + 1):
         wt = w.copy()
         wt[problem.free] += alpha * delta
-        rt, Jmin = _timed(stats, "assembly_s", problem.residual, wt, g)
+        rt, Jmin = timed(stats, "assembly_s", problem.residual, wt, g)
         stats.residual_evaluations += 1
         if Jmin > 0 and np.all(np.isfinite(rt)):
             return wt, rt, alpha
@@ -142,7 +145,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     nu_free = free < problem.nu_dof  # displacement part of the free dofs
     rref = float(np.linalg.norm(problem.gravity_load[free]))
     w = w.copy()
-    r, Jmin = _timed(stats, "assembly_s", problem.residual, w, g)
+    r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1
     if not Jmin > 0:
         return NewtonResult(w, False, 0, "inverted element in the initial guess")
@@ -152,14 +155,14 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     corrections = []
 
     def back_solve(rhs):
-        return _timed(stats, "linear_solve_s", solver.solve, rhs)
+        return timed(stats, "linear_solve_s", solver.solve, rhs)
 
     for it in range(options.max_iterations):
         if not np.isfinite(rn):
             return NewtonResult(w, False, it, "NaN in the residual", history, first, corrections)
-        K = _timed(stats, "assembly_s", problem.tangent, w)
+        K = timed(stats, "assembly_s", problem.tangent, w)
         try:
-            _timed(stats, "linear_solve_s", solver.factorize, K, w)
+            timed(stats, "linear_solve_s", solver.factorize, K, w)
             delta = back_solve(-r[free])
         except LinearSolverError as err:
             return NewtonResult(w, False, it, f"singular tangent ({err})", history, first, corrections)
@@ -210,25 +213,23 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
     snap along mirror-symmetric shapes, a slower route than the whole sheet's
     (pop-up of L/a = 1.3, a/R = 6 at hmax 0.1: 92 iterations against 39).
     """
-    import scipy.sparse as sp
-
     free = problem.free
     nu_free = free < problem.nu_dof
     rref = float(np.linalg.norm(problem.gravity_load[free]))
     M = problem.mass_data
     w = w.copy()
-    r, Jmin = _timed(stats, "assembly_s", problem.residual, w, g)
+    r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     if not Jmin > 0:
         return NewtonResult(w, False, 0, "inverted element in the initial guess")
     rn = float(np.linalg.norm(r[free]))
     history, corrections = [rn], []
     sigma = shift
     for it in range(max_iterations):
-        K = _timed(stats, "assembly_s", problem.tangent, w)
+        K = timed(stats, "assembly_s", problem.tangent, w)
         A = sp.csr_matrix((K.data + sigma * M, K.indices, K.indptr), shape=K.shape)
         try:
-            _timed(stats, "linear_solve_s", solver.factorize, A, w)
-            delta = _timed(stats, "linear_solve_s", solver.solve, -r[free])
+            timed(stats, "linear_solve_s", solver.factorize, A, w)
+            delta = timed(stats, "linear_solve_s", solver.solve, -r[free])
         except LinearSolverError:
             sigma *= 10.0  # singular: more damping
             continue

@@ -7,15 +7,17 @@ from functools import lru_cache
 
 import numpy as np
 
+from .analyses.observables import tip_deflection
+from .analyses.stability import stability
 from .continuation import PATHS, StepOptions, follow_path
+from .io import write_result
 from .linalg import make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
-from .model import SheetProblem
 from .newton import NewtonOptions, Stats
-from .observables import tip_deflection
 from .params import ParameterError, Sheet, check_range
+from .problem import SheetProblem
 
-__all__ = ["Result", "SolveError", "solve", "MAX_DOFS"]
+__all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS"]
 
 #: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
 MAX_DOFS = 1_500_000
@@ -167,14 +169,22 @@ class Result:
     def write(self, filename):
         """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu) or
         the summary (``.json``)."""
-        from .io import write_result
-
         write_result(self, filename)
 
 
 @lru_cache(maxsize=8)
-def _problem(sheet: Sheet, hmax: float, layers, quadrature_order: int,
-             half: bool = False, refine: int = 0) -> SheetProblem:
+def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int = 2,
+                  half: bool = False, refine: int = 0) -> SheetProblem:
+    """The discrete problem :func:`solve` solves: ``sheet`` on its mesh
+    (:func:`~skfem_sheet.mesh.sheet_mesh` with ``hmax``, ``layers``,
+    ``half``, ``refine``), cached (the same arguments give the same object).
+
+    Examples
+    --------
+    >>> p = build_problem(Sheet(length=0.5), 0.15, None, 2, half=True)
+    >>> p.sheet_mesh.half, p.ndof == p.space.ndof
+    (True, True)
+    """
     return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half, refine=refine),
                         quadrature_order)
 
@@ -252,11 +262,12 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
 
     t0 = time.perf_counter()
     stats = Stats()
-    problem = _problem(sheet, hmax, layers, quadrature_order, bool(symmetric), int(refine))
-    if hasattr(linear, "attach"):  # back-ends that need the dof structure (pyamg)
-        linear.attach(problem)
+    problem = build_problem(sheet, hmax, layers, quadrature_order, bool(symmetric), int(refine))
+    if getattr(linear, "needs_layout", False):  # the saddle-point structure (pyamg)
+        linear.attach(problem.saddle_point_layout())
     bar = None
     if progress:
+        # deferred: only progress bars need tqdm (~0.1 s to import)
         from tqdm.auto import tqdm
 
         bar = tqdm(total=100, desc=f"{path} L={sheet.length:g} b={sheet.tip_width:g} "
@@ -276,8 +287,6 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if bar is not None:
             bar.close()
     w = out.w
-    from .bistability import stability
-
     # inertia of the last factorised tangent (Newton's last iterate but one)
     stable, n_neg = stability(problem, linear) if out.converged else (None, None)
     result = Result(

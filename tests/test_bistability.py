@@ -6,7 +6,7 @@ from skfem_sheet.bistability import fold_lengths, s_curve, stability, transfer
 from skfem_sheet.cli import main
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.mesh import sheet_mesh
-from skfem_sheet.model import SheetProblem
+from skfem_sheet.problem import SheetProblem
 
 
 def test_transfer_is_exact_for_quadratic_fields():

@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import quad, solve_bvp
 
 from skfem_sheet import Sheet, SolveError, solve
-from skfem_sheet.observables import midline_heights
+from skfem_sheet.analyses.observables import midline_heights
 
 
 def heavy_elastica(L, thickness=0.03, modulus=735.0):
