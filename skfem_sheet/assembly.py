@@ -197,6 +197,10 @@ class Assembler:
     indices_fd: np.ndarray
     workspace: Workspace = field(default_factory=Workspace, repr=False)
 
+    def __repr__(self):
+        return (f"Assembler(n_elements={self.n_elements}, ndof={self.ndof}, "
+                f"n_free={self.n_free}, nnz={len(self.indices_ff)})")
+
     # -- construction --------------------------------------------------------
     @classmethod
     def build(cls, space: TaylorHoodSpace) -> Assembler:

@@ -158,6 +158,13 @@ class TaylorHoodSpace:
                    free=np.flatnonzero(~is_fixed), laplacian=element_laplacian(dx, dphi),
                    load_z=load_z, volume=float(dx.sum()))
 
+    def __repr__(self):
+        m = self.mesh
+        return (f"TaylorHoodSpace(hmax={m.hmax:g}, layers={m.layers}, half={m.half}, "
+                f"refine={m.refine}, length={self.length:g}, "
+                f"quadrature_order={self.quadrature_order}, n_elements={self.n_elements}, "
+                f"ndof={self.ndof}, n_free={self.n_free})")
+
     # -- sizes ---------------------------------------------------------------
     @property
     def n_elements(self) -> int:
@@ -205,9 +212,13 @@ class TaylorHoodSpace:
                        volume=ref.volume * s, reference=ref)
 
 
-@lru_cache(maxsize=8)
 def taylor_hood_space(mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
     """The Taylor-Hood space of ``mesh`` (cached: problems on one mesh share it)."""
+    return _cached_space(mesh, quadrature_order)
+
+
+@lru_cache(maxsize=8)
+def _cached_space(mesh, quadrature_order):
     return TaylorHoodSpace.build(mesh, quadrature_order)
 
 

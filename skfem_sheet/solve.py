@@ -172,7 +172,6 @@ class Result:
         write_result(self, filename)
 
 
-@lru_cache(maxsize=8)
 def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int = 2,
                   half: bool = False, refine: int = 0) -> SheetProblem:
     """The discrete problem :func:`solve` solves: ``sheet`` on its mesh
@@ -182,9 +181,14 @@ def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int 
     Examples
     --------
     >>> p = build_problem(Sheet(length=0.5), 0.15, None, 2, half=True)
-    >>> p.sheet_mesh.half, p.ndof == p.space.ndof
+    >>> p.sheet_mesh.half, p is build_problem(Sheet(length=0.5), 0.15, None, 2, half=True)
     (True, True)
     """
+    return _cached_problem(sheet, hmax, layers, quadrature_order, half, refine)
+
+
+@lru_cache(maxsize=8)
+def _cached_problem(sheet, hmax, layers, quadrature_order, half, refine):
     return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half, refine=refine),
                         quadrature_order)
 

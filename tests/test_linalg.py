@@ -8,19 +8,19 @@ from skfem_sheet import Sheet, solve
 from skfem_sheet.linalg import (LinearSolverError, PyAMGSolver, available_solvers,
                                 make_linear_solver, near_null_space)
 from skfem_sheet.params import ParameterError
-from skfem_sheet.solve import _problem
+from skfem_sheet.solve import build_problem
 
 BACKENDS = [s for s in ("pardiso", "superlu", "pyamg") if s in available_solvers()]
 DIRECT = [s for s in ("pardiso", "superlu") if s in available_solvers()]
 
 
 def _reference_problem(half=False):
-    return _problem(Sheet(length=0.5), 0.15, None, 2, half)
+    return build_problem(Sheet(length=0.5), 0.15, None, 2, half)
 
 
 def _make(name, problem, **options):
     s = make_linear_solver(name, **options)
-    s.attach(problem)
+    s.attach(problem.saddle_point_layout())
     return s
 
 
@@ -220,7 +220,7 @@ def test_pyamg_has_no_inertia(tangent):
 def test_pyamg_pads_nodes_with_fewer_free_components():
     # the half model fixes U_y on y = 0: those nodes have 2 free components
     s = PyAMGSolver()
-    s.attach(_reference_problem(half=True))
+    s.attach(_reference_problem(half=True).saddle_point_layout())
     assert s._pad is not None and s._npad > s._nu
 
 
@@ -240,3 +240,35 @@ def test_mkl_is_located_without_a_directory_scan(monkeypatch):
         pytest.skip("MKL not installed from the mkl wheel here")
     assert os.path.isfile(path) and "mkl_rt" in os.path.basename(path)
     ctypes.CDLL(path).pardiso  # the symbol pypardiso calls
+
+
+def test_linalg_takes_a_layout_not_a_sheet(tangent):
+    """The pyamg back-end works from the SaddlePointLayout alone; handing it the
+    problem (which is asked for its layout) gives the very same solve."""
+    pytest.importorskip("pyamg")
+    from skfem_sheet.linalg import SaddlePointLayout
+
+    p, K, b = tangent
+    lay = p.saddle_point_layout()
+    assert isinstance(lay, SaddlePointLayout)
+    xs = []
+    for arg in (lay, p):
+        s = PyAMGSolver(rtol=1e-8)
+        s.attach(arg)
+        s.factorize(K, state=np.zeros(p.ndof))
+        xs.append(s.solve(b))
+    assert np.array_equal(xs[0], xs[1])
+    assert not make_linear_solver("superlu").needs_layout and PyAMGSolver.needs_layout
+
+
+def test_saddle_point_layout_checks_its_sizes():
+    from skfem_sheet.linalg import SaddlePointLayout
+
+    ok = dict(n_displacement=2, n_pressure=1, displacement_nodes=np.array([0, 0]),
+              displacement_components=np.array([0, 1]), coordinates=np.zeros((1, 3)),
+              pressure_schur=sp.identity(1, format="csr"))
+    assert SaddlePointLayout(**ok).n_unknowns == 3
+    with pytest.raises(ValueError, match="displacement_nodes"):
+        SaddlePointLayout(**{**ok, "displacement_nodes": np.array([0])})
+    with pytest.raises(ValueError, match="pressure_schur"):
+        SaddlePointLayout(**{**ok, "pressure_schur": sp.identity(2, format="csr")})

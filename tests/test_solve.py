@@ -192,10 +192,10 @@ def test_timings_count_every_factorisation_and_solve():
     from skfem_sheet.continuation import follow_path
     from skfem_sheet.linalg import make_linear_solver
     from skfem_sheet.newton import Stats
-    from skfem_sheet.solve import _problem
+    from skfem_sheet.solve import build_problem
 
     sheet = Sheet(length=0.8, curvature=2.5)
-    problem = _problem(sheet, 0.2, None, 2, half=True)
+    problem = build_problem(sheet, 0.2, None, 2, half=True)
     solver = make_linear_solver("superlu")
     stats = Stats()
     out = follow_path(problem, "curvature-first", sheet.curvature, solver, stats=stats)

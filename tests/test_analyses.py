@@ -1,0 +1,40 @@
+"""analyses/: stability from the inertia, the tip deflection."""
+import numpy as np
+import pytest
+
+from _states import small_problem
+from skfem_sheet.analyses.observables import midline_nodes, tip_deflection
+from skfem_sheet.analyses.stability import stability
+
+
+class _Inertia:
+    def __init__(self, inertia):
+        self._inertia = inertia
+
+    def inertia(self):
+        return self._inertia
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return small_problem(True)
+
+
+def test_stability_counts_negative_eigenvalues_beyond_the_pressures(problem):
+    m = int(np.count_nonzero(problem.free >= problem.nu_dof))
+    n = problem.n_free
+    assert stability(problem, _Inertia((n - m, m, 0))) == (True, 0)
+    assert stability(problem, _Inertia((n - m - 2, m + 2, 0))) == (False, 2)
+    assert stability(problem, _Inertia((n - m - 1, m, 1))) == (False, 0)   # singular
+    assert stability(problem, _Inertia(None)) == (None, None)
+    assert stability(problem, object()) == (None, None)
+
+
+def test_tip_deflection_of_a_rigid_drop(problem):
+    # the free edge moved down by 0.25, the clamp kept: d = 0.25
+    w = np.zeros(problem.ndof)
+    U, _ = problem.split(w)
+    U[:, 2] = -0.25 * problem.nodes[:, 0] / problem.length
+    assert tip_deflection(problem, w) == pytest.approx(0.25, rel=1e-12)
+    tip = midline_nodes(problem, problem.length)
+    assert np.all(np.diff(problem.nodes[tip, 1]) > 0)
