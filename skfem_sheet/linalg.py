@@ -102,7 +102,7 @@ def _have_pardiso() -> bool:
 
 def _have_pyamg() -> bool:
     try:
-        import pyamg  # noqa: F401  (optional dependency: only probed)
+        import pyamg  # noqa: F401  (deferred, probed only: see PyAMGSolver._setup)
     except ImportError:
         return False
     return True
@@ -634,7 +634,8 @@ class PyAMGSolver(_Timed):
     _POST = ("block_gauss_seidel", {"sweep": "symmetric"})
 
     def _setup(self, A):
-        import pyamg  # optional dependency
+        # deferred: only this back-end needs pyamg (~0.05 s to import)
+        import pyamg
 
         self._ml = pyamg.smoothed_aggregation_solver(
             A, B=self._near_null_space(), strength=("symmetric", {"theta": self.theta}),
@@ -648,7 +649,7 @@ class PyAMGSolver(_Timed):
 
     def _refresh(self, A):
         """New operators on the old aggregates and prolongators."""
-        from pyamg.multilevel import coarse_grid_solver  # optional dependency
+        from pyamg.multilevel import coarse_grid_solver  # deferred: see _setup
         from pyamg.relaxation.smoothing import change_smoothers
 
         levels = self._ml.levels
@@ -726,7 +727,7 @@ class PyAMGSolver(_Timed):
         so on a miss the iteration restarts from the current ``x`` with the
         recomputed residual (iterative refinement), within ``maxiter`` in all.
         """
-        from pyamg.krylov import fgmres  # optional dependency
+        from pyamg.krylov import fgmres  # deferred: see _setup
 
         nb = np.linalg.norm(b)
         x = np.zeros_like(b)

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from skfem import MeshTet
 
 from .params import ParameterError, Sheet, check_range
 
@@ -278,6 +279,7 @@ def refine_triangulation(xy, tri, times: int = 1):
 @lru_cache(maxsize=32)
 def _half_plan(length: float, tip_width: float, hmax: float):
     """gmsh triangulation of ``0 <= y <= p(x)/2`` (cached, deterministic)."""
+    # deferred: gmsh (a C library, ~0.1 s to import) is only needed for new meshes
     import gmsh
 
     initialized_here = not gmsh.isInitialized()
@@ -406,8 +408,6 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
 def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False,
                  refine=0) -> SheetMesh:
     """The mesh; ``layers`` are all the layers (base layers times ``2**refine``)."""
-    from skfem import MeshTet
-
     xy, tri = plan_triangulation(length, tip_width, hmax, half, refine)
     p, t = extrude(xy, tri, thickness, layers)
     return SheetMesh(mesh=MeshTet(p, t), length=length, tip_width=tip_width,

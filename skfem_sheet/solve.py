@@ -271,7 +271,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         linear.attach(problem.saddle_point_layout())
     bar = None
     if progress:
-        # deferred: only progress bars need tqdm (~0.1 s to import)
+        # deferred: only progress bars need tqdm
         from tqdm.auto import tqdm
 
         bar = tqdm(total=100, desc=f"{path} L={sheet.length:g} b={sheet.tip_width:g} "
