@@ -2,7 +2,9 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet
+from skfem_sheet.analyses.observables import midline_nodes
 from skfem_sheet.mesh import default_layers, estimate_dofs, plan_triangulation, sheet_mesh
+from skfem_sheet.problem import SheetProblem
 
 
 @pytest.mark.parametrize("b", [1.0, 0.5, 0.0])
@@ -47,9 +49,6 @@ def test_mirror_symmetry_and_determinism():
 
 
 def test_triangle_tip_and_midline_nodes():
-    from skfem_sheet.problem import SheetProblem
-    from skfem_sheet.analyses.observables import midline_nodes
-
     s = Sheet(length=1.0, tip_width=0.0)
     for layers in (1, 2, 3):
         prob = SheetProblem(s, sheet_mesh(s, 0.2, layers))
@@ -65,8 +64,6 @@ def test_layers_and_estimate():
     assert default_layers(0.03, 0.01) == 3
     s = Sheet(length=1.0)
     m = sheet_mesh(s, 0.1)
-    from skfem_sheet.problem import SheetProblem
-
     n = SheetProblem(s, m).ndof
     assert 0.5 * n < estimate_dofs(s, 0.1) < 2 * n
 
@@ -181,8 +178,6 @@ def test_refine_layers_cache_and_estimate():
     assert sheet_mesh(s, 0.2) is m0
     n0, n1 = (estimate_dofs(s, 0.2, 2, half=True, refine=k) for k in (0, 1))
     assert 7.0 < n1 / n0 < 8.5   # P2 unknowns grow a little less than 8x (boundary)
-    from skfem_sheet.problem import SheetProblem
-
     n = SheetProblem(s, sheet_mesh(s, 0.1, refine=1)).ndof
     assert 0.5 * n < estimate_dofs(s, 0.1, refine=1) < 2 * n
 
