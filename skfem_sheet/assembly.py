@@ -273,7 +273,8 @@ class Assembler:
 
     # -- element kernels on chunks -------------------------------------------
     def on_element_chunks(self, kernel, w, *outs):
-        """:func:`on_element_chunks` (the thread pool, chunked like this mesh)."""
+        """``kernel(w, chunk, *out_chunks)`` on chunks of this mesh's elements,
+        in the process-wide thread pool (:func:`on_element_chunks`)."""
         return on_element_chunks(kernel, w, *outs)
 
     # -- buffers (call with workspace.lock held) -----------------------------

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skfem import BilinearForm, asm
 
-from .assembly import Assembler, assembler_for, on_element_chunks
+from .assembly import Assembler, assembler_for
 from .discretisation import SaddlePointLayout, TaylorHoodSpace, taylor_hood_space
 from .kernels import (clamp_displacement, clamp_displacement_rate, element_residuals,
                       element_tangent_blocks, first_invariant, kinematics,
@@ -189,7 +189,7 @@ class SheetProblem:
         asm_ = self.assembler
         with asm_.workspace.lock:
             R = asm_.residual_buffer()
-            Jmin = float(np.min(on_element_chunks(self._element_residuals, w, R)))  # NaN propagates
+            Jmin = float(np.min(asm_.on_element_chunks(self._element_residuals, w, R)))  # NaN propagates
             if not Jmin > 0:
                 return np.full(self.ndof, np.nan), Jmin
             r = asm_.vector(R)
@@ -258,7 +258,7 @@ class SheetProblem:
         constant = self._tangent_constant()
         with asm_.workspace.lock:
             Kb, Kpu = asm_.tangent_buffers()
-            on_element_chunks(self._element_blocks, w, Kb, Kpu)
+            asm_.on_element_chunks(self._element_blocks, w, Kb, Kpu)
             asm_.sum_blocks(constant, Kb, Kpu)
             data = asm_.gather()
         return asm_.matrix(data)
