@@ -1,7 +1,7 @@
 """Peak memory and time of one transfer between meshes (issue 19, the memory part).
 
     OMP_NUM_THREADS=1 python benchmarks/transfer_memory.py [--hmax 0.1,0.06] [--new-only 0.03]
-        [--out benchmarks/results/transfer_memory.txt]
+        [--fold-search 0.06] [--out benchmarks/results/transfer_memory.txt]
 
 The case of the issue: the state of a rectangle (b/a = 1, a/R = 2.5, the
 symmetric half model that ``follow_length`` uses) on the mesh made at
@@ -29,6 +29,11 @@ transfer under ``tracemalloc`` gives the peak of the memory it allocates
 (``traced``: numpy's buffers and Python objects, not what scipy's C++ code
 allocates).
 The parent also compares the two results (max abs difference) where both ran.
+
+``--fold-search H``: the peak memory (VmHWM) of a whole fold search
+(``fold_lengths`` of the rectangle at a/R 2.5, lengths 0.6 to 2.4, with the
+new transfer) and of its largest solve (L/a 2.4, gravity-first), each in a
+fresh process (the issue's acceptance: at most twice that of the solve).
 """
 from __future__ import annotations
 
@@ -51,9 +56,11 @@ except ImportError:  # run from a checkout without installing: use the repositor
 
 from skfem_sheet import Sheet
 from skfem_sheet.analyses.transfer import _clip_to_sheet, transfer
+from skfem_sheet.bistability import fold_lengths
 from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.model import SheetProblem
+from skfem_sheet.solve import solve
 
 MB = 1024.0 ** 2
 L_MESH, L_NOW = 1.8, 2.4
@@ -138,16 +145,45 @@ def run_child(hmax, code, out):
             rec["process_max_rss_mb"] = int(line.split()[-1]) / 1024.0
     return rec
 
+def whole(kind, hmax):
+    """One fold search (``fold_lengths``) or its largest solve, in this process."""
+    t0 = time.perf_counter()
+    if kind == "fold":
+        r = fold_lengths(1.0, 2.5, hmax=hmax)
+        rec = {"popup_length": r.popup_length, "standout_length": r.standout_length}
+    else:  # the longest sheet of the fold search's range, the branch it starts from there
+        r = solve(Sheet(length=L_NOW, tip_width=1.0, curvature=2.5), "gravity-first", hmax)
+        rec = {"deflection": r.deflection}
+    rec.update(kind=kind, hmax=hmax, wall_s=time.perf_counter() - t0,
+               vmhwm_mb=_status("VmHWM") / MB)
+    return rec
+
+
+def run_whole(kind, hmax):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    cmd = ["/usr/bin/time", "-v", sys.executable, os.path.abspath(__file__), "--whole", kind,
+           str(hmax)]
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    if p.returncode != 0:
+        raise RuntimeError(f"{kind} at {hmax} failed:\n{p.stderr[-3000:]}")
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hmax", default="0.1,0.06", help="meshes for old and new (comma list)")
     ap.add_argument("--new-only", default="", help="meshes for the new code only (comma list)")
     ap.add_argument("--out", default=None, help="write the table here too")
+    ap.add_argument("--fold-search", default="", help="meshes at which to measure a whole "
+                    "fold search (fold_lengths, b/a 1, a/R 2.5) and its largest solve")
     ap.add_argument("--child", nargs=3, metavar=("HMAX", "CODE", "NPY"), help=argparse.SUPPRESS)
+    ap.add_argument("--whole", nargs=2, metavar=("KIND", "HMAX"), help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
         print(dumps_json(child(float(a.child[0]), a.child[1], a.child[2]), indent=None))
+        return 0
+    if a.whole:
+        print(dumps_json(whole(a.whole[0], float(a.whole[1])), indent=None))
         return 0
     cases = [(float(h), c) for h in a.hmax.split(",") if h for c in ("old", "new")]
     cases += [(float(h), "new") for h in a.new_only.split(",") if h]
@@ -179,6 +215,17 @@ def main(argv=None):
                     f"{r['first_s']:>8.4f} {r['best_s']:>8.4f} {diff:>12}")
             print(line, flush=True)
             lines.append(line)
+    for h in [float(h) for h in a.fold_search.split(",") if h]:
+        fold, one = run_whole("fold", h), run_whole("solve", h)
+        ratio = fold["vmhwm_mb"] / one["vmhwm_mb"]
+        extra = ["", f"whole fold search at hmax {h:g} (new transfer; fresh processes, VmHWM):",
+                 (f"  fold_lengths(b/a 1, a/R 2.5): L0* {fold['popup_length']:.4f}, "
+                  f"L1* {fold['standout_length']:.4f}, peak {fold['vmhwm_mb']:.0f} MB, "
+                  f"wall {fold['wall_s']:.0f} s"),
+                 (f"  its largest solve (L/a {L_NOW}, gravity-first): peak "
+                  f"{one['vmhwm_mb']:.0f} MB, wall {one['wall_s']:.0f} s; ratio {ratio:.2f}")]
+        print("\n".join(extra), flush=True)
+        lines += extra
     notes = [
         "",
         "setup: VmHWM after building both problems; rss0: VmRSS just before the transfer;",
