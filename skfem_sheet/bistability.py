@@ -41,6 +41,7 @@ import numpy as np
 
 from .analyses.observables import midline_nodes, tip_deflection
 from .analyses.stability import stability
+from .analyses.transfer import transfer
 from .continuation import follow_path
 from .linalg import LinearSolverError, make_linear_solver
 from .mesh import sheet_mesh
@@ -116,36 +117,6 @@ class Branch(_Curve):
 # ----------------------------------------------------------------------------
 # kernels: stability, transfer between meshes, derivative in L
 # ----------------------------------------------------------------------------
-def transfer(old, w_old, new):
-    """Interpolate a state from problem ``old`` onto problem ``new``.
-
-    Both describe the same sheet at the same length (``old`` may be a
-    stretched mesh): displacements (P2) and pressures (P1) are evaluated at
-    the nodes of ``new``; clamped values are copied exactly.
-    """
-    s_old = old.length / old.sheet_mesh.length
-    X = new.nodes / np.array([s_old, 1.0, 1.0])  # in old's mesh coordinates
-    X = _clip_to_sheet(X, old.sheet_mesh)
-    U_old, p_old = old.split(w_old)
-    P2 = old.basis_u.probes(X.T)
-    n_v = new.sheet_mesh.n_vertices
-    P1 = old.basis_p.probes(X[:n_v].T)  # P2 vertex nodes come first (skfem numbering)
-    w = np.zeros(new.ndof)
-    w[: new.nu_dof] = (P2 @ U_old).ravel()
-    w[new.nu_dof:] = P1 @ p_old
-    return w
-
-
-def _clip_to_sheet(X, mesh, eps=1e-12):
-    """Move points that round-off put just outside the trapezoid back in."""
-    X = X.copy()
-    L, b, h = mesh.length, mesh.tip_width, mesh.thickness
-    X[:, 0] = np.clip(X[:, 0], 0.0, L)
-    half_width = 0.5 * (1.0 + (b - 1.0) * X[:, 0] / L)
-    lo = 0.0 if mesh.half else -1.0
-    X[:, 1] = np.clip(X[:, 1], lo * half_width, half_width) * (1 - eps)
-    X[:, 2] = np.clip(X[:, 2], -h / 2, h / 2)
-    return X
 
 
 def _residual_rate(problem, w, g=1.0, rel=1e-6):
