@@ -8,9 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from skfem_sheet import foldmap as fm
 from skfem_sheet.params import ParameterError
-from skfem_sheet.sweep import journal_path
+from skfem_sheet.studies import foldmap as fm
+from skfem_sheet.studies.sweep import journal_path
 
 
 def _row(b, c, L0=math.nan, L1=math.nan, curve=None):

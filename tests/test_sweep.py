@@ -1,4 +1,4 @@
-"""Parameter sweeps (skfem_sheet.sweep): grids, keys, the journal, resume, kill -9, Dask.
+"""Parameter sweeps (skfem_sheet.studies.sweep): grids, keys, the journal, resume, kill -9, Dask.
 
 Logic tests replace the solver by a fake (fast, and able to fail on purpose);
 the kill -9 and Dask tests solve real, coarse sheets (hmax 0.2, L <= 0.5).
@@ -11,16 +11,18 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-import skfem_sheet.sweep as sw
+import skfem_sheet.studies.sweep as sw
 from skfem_sheet.cli import main
+from skfem_sheet.cli.ranges import parse_values
 from skfem_sheet.params import ParameterError
-from skfem_sheet.sweep import grid, journal_path, point_key, read_journal, run_sweep
+from skfem_sheet.solve import Result
+from skfem_sheet.studies import runner
+from skfem_sheet.studies.sweep import grid, journal_path, point_key, read_journal, run_sweep
 
 
 # -- a fake solver ---------------------------------------------------------------------------
@@ -43,16 +45,23 @@ class FakeSolve:
         L = sheet.length
         if L == 0.9:
             raise RuntimeError("boom in the solver")
-        r = SimpleNamespace(
+        snaps = (("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else ()
+        # the load path's branch, the other one if it snapped (as solve labels it)
+        branch = [("curvature-dominated", "gravity-dominated")[(path == "gravity-first")
+                                                             != bool(snaps)]]
+        stable = None
+        if L == 0.6:
+            branch, stable = ["gravity-dominated"], False
+        return Result(
+            sheet=sheet, path=path, hmax=hmax,
             deflection=L + 0.01 * sheet.curvature + (0.001 if path == "gravity-first" else 0),
             converged=L != 0.8, message="step too small at kappa=1.2" if L == 0.8 else "",
-            snaps=(("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else (), newton_iterations=7,
+            snaps=snaps, newton_iterations=7,
             load_steps=3, wall_time_s=0.01, assembly_s=0.001, linear_solve_s=0.002, dofs=100,
             energy=-1.0, volume_change=1e-9, kappa=sheet.curvature, gravity=1.0,
-            factorizations=7, rejected_steps=0, solver="fake", layers=kw.get("layers") or 2)
-        if L == 0.6:
-            r.branch, r.stable = "gravity-dominated", False
-        return r
+            factorizations=7, rejected_steps=0, solver="fake", layers=kw.get("layers") or 2,
+            branch=branch[0], stable=stable, refine=kw.get("refine", 0),
+            symmetric=kw.get("symmetric", True))
 
 
 @pytest.fixture
@@ -111,7 +120,7 @@ def test_key_normalises_float_noise_but_not_real_differences():
 
 
 def test_key_does_not_depend_on_the_process():
-    code = "from skfem_sheet.sweep import point_key; print(point_key({'length': 1.3}))"
+    code = "from skfem_sheet.studies.sweep import point_key; print(point_key({'length': 1.3}))"
     env = dict(os.environ, PYTHONHASHSEED="123")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=env, timeout=120, check=True).stdout.strip()
@@ -289,10 +298,10 @@ def test_bad_cli_input_exit_2_with_one_line(args, name, capsys, tmp_path):
 
 
 def test_parse_values_ranges_include_the_stop():
-    assert sw.parse_values("0.5:1.5:0.25", "--lengths") == [0.5, 0.75, 1.0, 1.25, 1.5]
-    assert sw.parse_values("0:0.3:0.1", "x") == [0.0, 0.1, 0.2, 0.3]  # 0.3/0.1 = 2.9999...
-    assert sw.parse_values("0:0.35:0.1", "x") == [0.0, 0.1, 0.2, 0.3]
-    assert sw.parse_values("2", "x", int) == [2]
+    assert parse_values("0.5:1.5:0.25", "--lengths") == [0.5, 0.75, 1.0, 1.25, 1.5]
+    assert parse_values("0:0.3:0.1", "x") == [0.0, 0.1, 0.2, 0.3]  # 0.3/0.1 = 2.9999...
+    assert parse_values("0:0.35:0.1", "x") == [0.0, 0.1, 0.2, 0.3]
+    assert parse_values("2", "x", int) == [2]
 
 
 # -- real solves: kill -9 and Dask -------------------------------------------------------------
@@ -392,7 +401,8 @@ def _crashing_task(points):
 @pytest.mark.slow  # about 5 worker processes start (10 s on a busy 2-core machine)
 def test_a_point_that_kills_its_worker_is_a_failed_row_and_the_rest_go_on():
     pts = grid(length=[0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
-    recs = [r for batch in sw._pool(sw._chunks(pts, 2, chunk_size=2), 2, task=_crashing_task)
+    recs = [r for batch in runner.pool(sw._chunks(pts, 2, chunk_size=2), 2,
+                                       task=_crashing_task, failed=sw._failed)
             for r in batch]
     assert sorted(r["key"] for r in recs) == sorted(point_key(p) for p in pts)  # each once
     by = {r["length"]: r for r in recs}
