@@ -199,18 +199,23 @@ class Result:
         return out
 
     def summary(self) -> dict:
-        """JSON-ready summary (the CLI's ``--json`` contents), made from :meth:`to_record`."""
+        """JSON-ready summary (the CLI's ``--json`` contents), made from :meth:`to_record`.
+
+        The record's fields, with the sheet and mesh parameters grouped under
+        ``params`` (``layers`` there: the layers solved), ``solver`` the
+        back-end used; then the ``steps`` and ``snaps`` and the ``version``.
+        """
         rec = self.to_record()
-        out = {k: rec[k] for k in (
+        params = {k: rec.pop(k) for k in ("length", "tip_width", "curvature", "thickness",
+                                          "modulus", "hmax")}
+        params.update(layers=rec.pop("layers_used"), refine=rec.pop("refine"))
+        out = {k: rec.pop(k) for k in (
             "deflection", "converged", "message", "path", "dofs", "newton_iterations",
             "factorizations", "load_steps", "rejected_steps", "wall_time_s", "linear_solve_s",
             "assembly_s", "energy", "volume_change", "kappa_reached", "gravity_reached")}
-        out["solver"] = rec["linear_solver"]
-        out.update({k: rec[k] for k in ("symmetric", "branch", "stable",
-                                        "negative_eigenvalues")})
-        out["params"] = {k: rec[k] for k in ("length", "tip_width", "curvature", "thickness",
-                                             "modulus", "hmax")}
-        out["params"].update(layers=rec["layers_used"], refine=rec["refine"])
+        out["solver"] = rec.pop("linear_solver")
+        out.update(rec)  # symmetric, branch, stable, ... and any field added to the record
+        out["params"] = params
         out.update(steps=[list(x) for x in self.steps], snaps=[list(x) for x in self.snaps],
                    version=__version__)
         return out
