@@ -4,6 +4,7 @@ Logic tests replace the solver by a fake (fast, and able to fail on purpose);
 the kill -9 and Dask tests solve real, coarse sheets (hmax 0.2, L <= 0.5).
 """
 import json
+import logging
 import math
 import os
 import signal
@@ -17,6 +18,7 @@ import pandas as pd
 import pytest
 
 import skfem_sheet.studies.sweep as sw
+from skfem_sheet import __version__
 from skfem_sheet.cli import main
 from skfem_sheet.cli.ranges import parse_values
 from skfem_sheet.mesh import estimate_dofs
@@ -159,7 +161,6 @@ def test_failures_are_rows_and_the_sweep_carries_on(fake, tmp_path):
         "solver", "deflection", "converged", "message", "branch", "stable", "snapped",
         "newton_iterations", "load_steps", "wall_time_s", "assembly_s", "linear_solve_s",
         "dofs", "energy", "volume_change", "version", "key"}
-    from skfem_sheet import __version__
     assert set(df.version) == {__version__}
 
 
@@ -447,8 +448,6 @@ def test_kill_9_halfway_then_restart_gives_every_point_exactly_once(killed_and_r
 
 def test_dask_local_cluster_gives_the_process_pool_table(killed_and_resumed, tmp_path):
     distributed = pytest.importorskip("distributed")
-    import logging
-
     pool = pd.read_csv(killed_and_resumed["table"])
     with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
                                   dashboard_address=None, silence_logs=logging.ERROR) as cluster:
