@@ -11,7 +11,7 @@ import argparse
 import math
 
 from skfem_sheet import figures
-from skfem_sheet.foldmap import critical_tip_width, fold_map
+from skfem_sheet.studies.foldmap import critical_tip_width, fold_map
 
 
 def main(argv=None):

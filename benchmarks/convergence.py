@@ -51,9 +51,20 @@ import sys
 
 from tqdm.auto import tqdm
 
-from _common import (add_run_options, analyse_sequence, estimate_unknowns, fmt,
-                     interrupted, local_orders, machine_info, nested_family, open_store,
-                     parse_family, run_isolated, warn_if_busy)
+from _common import (
+    add_run_options,
+    analyse_sequence,
+    estimate_unknowns,
+    fmt,
+    interrupted,
+    local_orders,
+    machine_info,
+    nested_family,
+    open_store,
+    parse_family,
+    run_isolated,
+    warn_if_busy,
+)
 
 DEFAULT_FAMILY = "0.12:2,0.08:3,0.06:4,0.04:6,0.03:8"
 QUICK_FAMILY = "0.2:2,0.14:2,0.1:2"

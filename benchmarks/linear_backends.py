@@ -47,8 +47,15 @@ import time
 
 import numpy as np
 
-from _common import (GB, _peak_rss_bytes, available_backends, fmt, machine_info,
-                     run_isolated, warn_if_busy)
+from _common import (
+    GB,
+    _peak_rss_bytes,
+    available_backends,
+    fmt,
+    machine_info,
+    run_isolated,
+    warn_if_busy,
+)
 
 DIRECT_RTOL = 1e-6  # a direct solve that misses this is reported as failed
 SUPERLU_MIN_HMAX = 0.05  # superlu takes many minutes per system below this (as solve_speed.py)

@@ -16,8 +16,13 @@ import time
 import numpy as np
 
 from skfem_sheet.params import Sheet
-from skfem_sheet.reduced import (cantilever_deflection, elastica, persistence_length,
-                                 ribbon, ribbon_map)
+from skfem_sheet.reduced import (
+    cantilever_deflection,
+    elastica,
+    persistence_length,
+    ribbon,
+    ribbon_map,
+)
 
 
 def _timeit(fn, repeat=5):

@@ -28,8 +28,16 @@ import sys
 
 from tqdm.auto import tqdm
 
-from _common import (add_run_options, available_backends, fmt, interrupted, machine_info,
-                     open_store, run_isolated, warn_if_busy)
+from _common import (
+    add_run_options,
+    available_backends,
+    fmt,
+    interrupted,
+    machine_info,
+    open_store,
+    run_isolated,
+    warn_if_busy,
+)
 
 CASES = [
     ("rectangle", dict(length=1.3, tip_width=1.0, curvature=2.5), "curvature-first"),

@@ -186,7 +186,7 @@ def main():
         import numpy as np
         from distributed import LocalCluster
 
-        from skfem_sheet.sweep import grid, run_sweep
+        from skfem_sheet.studies.sweep import grid, run_sweep
 
         pts = grid(length=[0.3, 0.4, 0.5], tip_width=[1.0, 0.0], curvature=[0.0, 2.5],
                    path="both", hmax=args.hmax)

@@ -35,9 +35,18 @@ import sys
 
 from tqdm.auto import tqdm
 
-from _common import (add_run_options, available_backends, estimate_unknowns, fmt,
-                     interrupted, machine_info, open_store, run_isolated, solve_supports,
-                     warn_if_busy)
+from _common import (
+    add_run_options,
+    available_backends,
+    estimate_unknowns,
+    fmt,
+    interrupted,
+    machine_info,
+    open_store,
+    run_isolated,
+    solve_supports,
+    warn_if_busy,
+)
 
 DEFAULT_HMAX = "0.12,0.08,0.06,0.04,0.03"
 QUICK_HMAX = "0.2,0.14"

@@ -15,7 +15,7 @@ from .continuation import StepOptions
 from .newton import NewtonOptions
 from .params import Sheet
 from .solve import Result, SolveError, solve
+from .version import __version__
 
-__version__ = "0.1.0"
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
            "__version__"]

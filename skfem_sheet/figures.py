@@ -164,7 +164,7 @@ def quality_settings(quality: str) -> dict:
 # -- data --------------------------------------------------------------------------------
 def _foldmap():
     """The fold-map module (looked up at call time so tests can substitute it)."""
-    return importlib.import_module("skfem_sheet.foldmap")
+    return importlib.import_module("skfem_sheet.studies.foldmap")
 
 
 def _arange(lo, hi, step):

@@ -4,6 +4,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 
@@ -16,6 +17,7 @@ from .mesh import estimate_dofs, sheet_mesh
 from .newton import NewtonOptions, Stats
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
+from .version import __version__
 
 __all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS"]
 
@@ -130,41 +132,95 @@ class Result:
         """psi/mu = (I_C - 3)/2 per tetrahedron (computed on demand)."""
         return self.problem.energy_density(self.w)
 
-    def summary(self) -> dict:
-        """JSON-ready summary (the CLI's ``--json`` contents)."""
-        from . import __version__
+    #: The fields of :meth:`to_record`, in order, with their kinds: ``"float"``,
+    #: ``"int"`` (may be missing), ``"bool"``, ``"bool?"`` (True, False or
+    #: unknown) and ``"str"``; and how each is read off a Result.  The one
+    #: definition of a result row (the sweep's columns and dtypes derive from it).
+    RECORD_FIELDS: ClassVar[tuple] = (
+        ("length", "float", lambda r: r.sheet.length),
+        ("tip_width", "float", lambda r: r.sheet.tip_width),
+        ("curvature", "float", lambda r: r.sheet.curvature),
+        ("thickness", "float", lambda r: r.sheet.thickness),
+        ("modulus", "float", lambda r: r.sheet.modulus),
+        ("path", "str", lambda r: r.path),
+        ("hmax", "float", lambda r: r.hmax),
+        ("refine", "int", lambda r: r.refine),
+        ("symmetric", "bool", lambda r: r.symmetric),
+        ("deflection", "float", lambda r: r.deflection),
+        ("converged", "bool", lambda r: r.converged),
+        ("message", "str", lambda r: r.message or ""),
+        ("branch", "str", lambda r: r.branch),
+        ("stable", "bool?", lambda r: r.stable),
+        ("negative_eigenvalues", "int", lambda r: r.negative_eigenvalues),
+        ("snapped", "bool?", lambda r: len(r.snaps) > 0),
+        ("newton_iterations", "int", lambda r: r.newton_iterations),
+        ("load_steps", "int", lambda r: r.load_steps),
+        ("wall_time_s", "float", lambda r: r.wall_time_s),
+        ("assembly_s", "float", lambda r: r.assembly_s),
+        ("linear_solve_s", "float", lambda r: r.linear_solve_s),
+        ("dofs", "int", lambda r: r.dofs),
+        ("energy", "float", lambda r: r.energy),
+        ("volume_change", "float", lambda r: r.volume_change),
+        ("kappa_reached", "float", lambda r: r.kappa),
+        ("gravity_reached", "float", lambda r: r.gravity),
+        ("factorizations", "int", lambda r: r.factorizations),
+        ("rejected_steps", "int", lambda r: r.rejected_steps),
+        ("linear_solver", "str", lambda r: r.solver),
+        ("layers_used", "int", lambda r: r.layers),
+    )
 
-        s = self.sheet
-        return {
-            "deflection": self.deflection,
-            "converged": self.converged,
-            "message": self.message,
-            "path": self.path,
-            "dofs": self.dofs,
-            "newton_iterations": self.newton_iterations,
-            "factorizations": self.factorizations,
-            "load_steps": self.load_steps,
-            "rejected_steps": self.rejected_steps,
-            "wall_time_s": self.wall_time_s,
-            "linear_solve_s": self.linear_solve_s,
-            "assembly_s": self.assembly_s,
-            "energy": self.energy,
-            "volume_change": self.volume_change,
-            "kappa_reached": self.kappa,
-            "gravity_reached": self.gravity,
-            "solver": self.solver,
-            "symmetric": self.symmetric,
-            "branch": self.branch,
-            "stable": self.stable,
-            "negative_eigenvalues": self.negative_eigenvalues,
-            "params": {"length": s.length, "tip_width": s.tip_width,
-                       "curvature": s.curvature, "thickness": s.thickness,
-                       "modulus": s.modulus, "hmax": self.hmax, "layers": self.layers,
-                       "refine": self.refine},
-            "steps": [list(x) for x in self.steps],
-            "snaps": [list(x) for x in self.snaps],
-            "version": __version__,
-        }
+    def to_record(self) -> dict:
+        """The result as one flat row: parameters and outputs, plain Python values.
+
+        The one definition of a result row (:data:`RECORD_FIELDS`): a sweep's
+        table (:mod:`skfem_sheet.studies.sweep`) holds these columns, and
+        :meth:`summary` is made from it.  ``snapped`` is whether the path
+        snapped to the other branch; ``kappa_reached``/``gravity_reached`` the
+        load reached; ``linear_solver`` the back-end used; ``layers_used`` the
+        layers of the mesh solved.
+
+        Examples
+        --------
+        >>> r = solve(Sheet(length=0.5), hmax=0.1)
+        >>> rec = r.to_record()
+        >>> rec["length"], rec["converged"], rec["deflection"] == r.deflection
+        (0.5, True, True)
+        >>> list(rec) == [name for name, _, _ in Result.RECORD_FIELDS]
+        True
+        """
+        out = {}
+        for name, kind, get in self.RECORD_FIELDS:
+            v = get(self)
+            if kind == "float":
+                v = float(v)
+            elif kind == "bool":
+                v = bool(v)
+            elif v is not None:
+                v = {"int": int, "bool?": bool, "str": str}[kind](v)
+            out[name] = v
+        return out
+
+    def summary(self) -> dict:
+        """JSON-ready summary (the CLI's ``--json`` contents), made from :meth:`to_record`.
+
+        The record's fields, with the sheet and mesh parameters grouped under
+        ``params`` (``layers`` there: the layers solved), ``solver`` the
+        back-end used; then the ``steps`` and ``snaps`` and the ``version``.
+        """
+        rec = self.to_record()
+        params = {k: rec.pop(k) for k in ("length", "tip_width", "curvature", "thickness",
+                                          "modulus", "hmax")}
+        params.update(layers=rec.pop("layers_used"), refine=rec.pop("refine"))
+        out = {k: rec.pop(k) for k in (
+            "deflection", "converged", "message", "path", "dofs", "newton_iterations",
+            "factorizations", "load_steps", "rejected_steps", "wall_time_s", "linear_solve_s",
+            "assembly_s", "energy", "volume_change", "kappa_reached", "gravity_reached")}
+        out["solver"] = rec.pop("linear_solver")
+        out.update(rec)  # symmetric, branch, stable, ... and any field added to the record
+        out["params"] = params
+        out.update(steps=[list(x) for x in self.steps], snaps=[list(x) for x in self.snaps],
+                   version=__version__)
+        return out
 
     def write(self, filename):
         """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu) or

@@ -4,6 +4,7 @@ import sys
 
 import pytest
 
+from skfem_sheet import Sheet, solve
 from skfem_sheet.cli import main
 
 
@@ -98,8 +99,6 @@ def test_bad_argument_through_the_interpreter():
 def test_solve_refine_is_passed_and_reported(tmp_path):
     """--refine 1 halves every edge: twice the layers, several times the unknowns; the
     JSON records it."""
-    from skfem_sheet import Sheet, solve
-
     out = tmp_path / "r.json"
     rc = main(["solve", "--length", "0.3", "--hmax", "0.3", "--refine", "1", "--json", str(out),
                "--quiet"])

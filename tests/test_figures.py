@@ -15,8 +15,9 @@ import pytest
 
 pd = pytest.importorskip("pandas")
 
-from skfem_sheet import figures, foldmap  # noqa: E402
+from skfem_sheet import figures  # noqa: E402
 from skfem_sheet.cli import main  # noqa: E402
+from skfem_sheet.studies import foldmap  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

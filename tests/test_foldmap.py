@@ -3,14 +3,15 @@ import json
 import math
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from skfem_sheet import foldmap as fm
 from skfem_sheet.params import ParameterError
-from skfem_sheet.sweep import journal_path
+from skfem_sheet.studies import foldmap as fm
+from skfem_sheet.studies.sweep import journal_path
 
 
 def _row(b, c, L0=math.nan, L1=math.nan, curve=None):
@@ -143,3 +144,40 @@ def test_cli_bad_input_is_one_line():
                          capture_output=True, text=True)
     assert out.returncode == 2
     assert "tip-widths" in out.stderr and "Traceback" not in out.stderr
+
+
+def _fake_fold_lengths(up_snapped, down_snapped):
+    def branch(snapped, L):
+        return SimpleNamespace(lengths=np.array(L), deflections=np.array([0.1, 0.2]),
+                               stable=[True, True], reason="", start_snapped=snapped,
+                               newton_iterations=5)
+
+    def fold_lengths(tip_width, curvature, *, lengths, **kw):
+        return SimpleNamespace(increasing=branch(up_snapped, [lengths[0], lengths[0] + 0.1]),
+                               decreasing=branch(down_snapped, [lengths[1], lengths[1] - 0.1]),
+                               popup_length=None, standout_length=None, bistable=False,
+                               wall_time_s=0.1)
+    return fold_lengths
+
+
+@pytest.mark.parametrize("up, down", [(False, False), (True, False), (False, True)])
+def test_snapped_starts_are_structured_columns(up, down, monkeypatch, tmp_path):
+    """The branches' start_snapped flags are boolean columns (figures read them, not the
+    message); journal lines from before the columns get them from their message."""
+    monkeypatch.setattr(fm, "fold_lengths", _fake_fold_lengths(up, down))
+    table = tmp_path / "map.csv"
+    df = fm.fold_map(fm.map_points([1.0], [2.5]), table=table, workers=1, progress=False)
+    r = df.iloc[0]
+    assert r.curvature_dominated_snapped == up and r.gravity_dominated_snapped == down
+    assert bool(r.converged) == (not up and not down)
+    assert ("curvature-dominated branch does not exist" in r.message) == up
+    back = pd.read_csv(table)
+    assert list(back.curvature_dominated_snapped) == [up]
+    # an older journal line without the columns
+    line = json.loads(open(journal_path(table)).read())
+    del line["curvature_dominated_snapped"], line["gravity_dominated_snapped"]
+    open(journal_path(table), "w").write(json.dumps(line) + "\n")
+    again = fm.fold_map(fm.map_points([1.0], [2.5]), table=table, workers=1, progress=False)
+    assert again.attrs["fold_map"]["new"] == 0
+    assert again.curvature_dominated_snapped[0] == up
+    assert again.gravity_dominated_snapped[0] == down

@@ -4,15 +4,16 @@ import json
 
 import pytest
 
-from skfem_sheet.reduced.cli import add_rom_subparser, parse_range
+from skfem_sheet.cli.ranges import parse_range
+from skfem_sheet.cli.rom import register
 
 
 def run(argv):
     p = argparse.ArgumentParser()
     sub = p.add_subparsers(dest="command")
-    add_rom_subparser(sub)
+    register(sub)
     args = p.parse_args(argv)
-    return args.func(args)
+    return args.run(args)
 
 
 def test_persistence(tmp_path, capsys):

@@ -1,9 +1,10 @@
-"""Parameter sweeps (skfem_sheet.sweep): grids, keys, the journal, resume, kill -9, Dask.
+"""Parameter sweeps (skfem_sheet.studies.sweep): grids, keys, the journal, resume, kill -9, Dask.
 
 Logic tests replace the solver by a fake (fast, and able to fail on purpose);
 the kill -9 and Dask tests solve real, coarse sheets (hmax 0.2, L <= 0.5).
 """
 import json
+import logging
 import math
 import os
 import signal
@@ -11,16 +12,20 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-import skfem_sheet.sweep as sw
+import skfem_sheet.studies.sweep as sw
+from skfem_sheet import __version__
 from skfem_sheet.cli import main
-from skfem_sheet.params import ParameterError
-from skfem_sheet.sweep import grid, journal_path, point_key, read_journal, run_sweep
+from skfem_sheet.cli.ranges import parse_values
+from skfem_sheet.mesh import estimate_dofs
+from skfem_sheet.params import ParameterError, Sheet
+from skfem_sheet.solve import MAX_DOFS, Result, solve
+from skfem_sheet.studies import runner
+from skfem_sheet.studies.sweep import grid, journal_path, point_key, read_journal, run_sweep
 
 
 # -- a fake solver ---------------------------------------------------------------------------
@@ -43,16 +48,23 @@ class FakeSolve:
         L = sheet.length
         if L == 0.9:
             raise RuntimeError("boom in the solver")
-        r = SimpleNamespace(
+        snaps = (("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else ()
+        # the load path's branch, the other one if it snapped (as solve labels it)
+        branch = [("curvature-dominated", "gravity-dominated")[(path == "gravity-first")
+                                                             != bool(snaps)]]
+        stable = None
+        if L == 0.6:
+            branch, stable = ["gravity-dominated"], False
+        return Result(
+            sheet=sheet, path=path, hmax=hmax,
             deflection=L + 0.01 * sheet.curvature + (0.001 if path == "gravity-first" else 0),
             converged=L != 0.8, message="step too small at kappa=1.2" if L == 0.8 else "",
-            snaps=(("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else (), newton_iterations=7,
+            snaps=snaps, newton_iterations=7,
             load_steps=3, wall_time_s=0.01, assembly_s=0.001, linear_solve_s=0.002, dofs=100,
             energy=-1.0, volume_change=1e-9, kappa=sheet.curvature, gravity=1.0,
-            factorizations=7, rejected_steps=0, solver="fake", layers=kw.get("layers") or 2)
-        if L == 0.6:
-            r.branch, r.stable = "gravity-dominated", False
-        return r
+            factorizations=7, rejected_steps=0, solver="fake", layers=kw.get("layers") or 2,
+            branch=branch[0], stable=stable, refine=kw.get("refine", 0),
+            symmetric=kw.get("symmetric", True))
 
 
 @pytest.fixture
@@ -111,7 +123,7 @@ def test_key_normalises_float_noise_but_not_real_differences():
 
 
 def test_key_does_not_depend_on_the_process():
-    code = "from skfem_sheet.sweep import point_key; print(point_key({'length': 1.3}))"
+    code = "from skfem_sheet.studies.sweep import point_key; print(point_key({'length': 1.3}))"
     env = dict(os.environ, PYTHONHASHSEED="123")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=env, timeout=120, check=True).stdout.strip()
@@ -149,7 +161,6 @@ def test_failures_are_rows_and_the_sweep_carries_on(fake, tmp_path):
         "solver", "deflection", "converged", "message", "branch", "stable", "snapped",
         "newton_iterations", "load_steps", "wall_time_s", "assembly_s", "linear_solve_s",
         "dofs", "energy", "volume_change", "version", "key"}
-    from skfem_sheet import __version__
     assert set(df.version) == {__version__}
 
 
@@ -289,10 +300,88 @@ def test_bad_cli_input_exit_2_with_one_line(args, name, capsys, tmp_path):
 
 
 def test_parse_values_ranges_include_the_stop():
-    assert sw.parse_values("0.5:1.5:0.25", "--lengths") == [0.5, 0.75, 1.0, 1.25, 1.5]
-    assert sw.parse_values("0:0.3:0.1", "x") == [0.0, 0.1, 0.2, 0.3]  # 0.3/0.1 = 2.9999...
-    assert sw.parse_values("0:0.35:0.1", "x") == [0.0, 0.1, 0.2, 0.3]
-    assert sw.parse_values("2", "x", int) == [2]
+    assert parse_values("0.5:1.5:0.25", "--lengths") == [0.5, 0.75, 1.0, 1.25, 1.5]
+    assert parse_values("0:0.3:0.1", "x") == [0.0, 0.1, 0.2, 0.3]  # 0.3/0.1 = 2.9999...
+    assert parse_values("0:0.35:0.1", "x") == [0.0, 0.1, 0.2, 0.3]
+    assert parse_values("2", "x", int) == [2]
+
+
+# -- the size check and the solve options ----------------------------------------------------
+@pytest.mark.parametrize("refine", [0, 1])
+def test_a_point_solve_accepts_near_the_size_limit_is_accepted_by_sweep(refine, fake, tmp_path,
+                                                                         capsys):
+    """solve refuses a mesh by the size of what it solves (the symmetric half, refined):
+    the sweep refuses exactly the same points, up front and in the CLI."""
+    sheet = Sheet(length=3.0)
+    hs = np.round(np.arange(0.002, 0.5, 0.001), 6)
+    fits = [h for h in hs if estimate_dofs(sheet, h, None, half=True, refine=refine) <= MAX_DOFS]
+    h = float(min(fits))  # the finest mesh of the 1/1000 grid that solve accepts
+    assert estimate_dofs(sheet, h, None, half=False, refine=refine) > MAX_DOFS  # near the limit
+    too_fine = float(np.round(h - 0.001, 6))
+    point = {"length": 3.0, "hmax": h, "refine": refine}
+
+    def solve_refuses_size(hmax, symmetric):
+        # a bad solver name is refused after the size check: it tells whether the size passed
+        with pytest.raises(ParameterError) as err:
+            solve(sheet, hmax=hmax, refine=refine, symmetric=symmetric, solver="magic")
+        return "hmax must be larger" in str(err.value)
+
+    assert not solve_refuses_size(h, True)
+    sw.check_point(point)  # accepted
+    assert solve_refuses_size(too_fine, True)
+    with pytest.raises(ParameterError, match="hmax must be larger"):
+        sw.check_point({**point, "hmax": too_fine})
+    assert solve_refuses_size(h, False)  # the whole sheet is twice as big
+    with pytest.raises(ParameterError, match="hmax must be larger"):
+        sw.check_point({**point, "symmetric": False})
+
+    args = ["sweep", "--lengths", "3", "--hmax", str(h), "--refine", str(refine), "--workers",
+            "1", "--quiet"]  # one worker: the fake solver, in this process
+    assert main([*args, "--table", str(tmp_path / "a.csv")]) == 0
+    assert fake.calls == [(3.0, 0.0, "curvature-first")]
+    assert main([*args, "--symmetric", "no", "--table", str(tmp_path / "b.csv")]) == 2
+    assert "hmax must be larger" in capsys.readouterr().err
+    assert len(fake.calls) == 1
+
+
+def test_solve_options_are_swept_and_keep_old_keys(fake, tmp_path):
+    pts = grid(length=0.5, refine=[0, 1], symmetric=[True, False])
+    assert len(pts) == 4 and "refine" not in pts[0] and "symmetric" not in pts[0]
+    assert pts[3]["refine"] == 1 and pts[3]["symmetric"] is False
+    assert len({point_key(p) for p in pts}) == 4
+    # a solve option at its default is not part of the point: keys from before stay valid
+    assert point_key({"length": 0.5, "refine": 0, "symmetric": True}) == point_key({"length": 0.5})
+    with pytest.raises(TypeError):
+        grid(length=0.5, quadrature=3)
+    table = tmp_path / "t.csv"
+    df = run_sweep(pts, table=table, workers=1, progress=False)
+    assert list(df.refine) == [0, 0, 1, 1] and list(df.symmetric) == [True, False, True, False]
+    assert [c[0] for c in fake.calls] == [0.5] * 4
+    # an older journal line (no option columns) is the point at the defaults
+    recs = [json.loads(line) for line in Path(journal_path(table)).read_text().splitlines()]
+    for rec in recs:
+        if rec["refine"] == 0 and rec["symmetric"]:
+            del rec["refine"], rec["symmetric"]
+    Path(journal_path(table)).write_text("".join(json.dumps(r) + "\n" for r in recs))
+    again = run_sweep(pts, table=table, workers=1, progress=False)
+    assert again.attrs["sweep"]["new"] == 0 and bool(again.symmetric[0]) is True
+    assert again.refine[0] == 0
+
+
+def test_a_sweep_row_is_the_results_record():
+    """The row of a point holds Result.to_record() of its solve (the one row definition)."""
+    pts = grid(length=0.3, curvature=2.5, hmax=0.2, refine=[0, 1], symmetric=[True, False])
+    df = run_sweep(pts, workers=1, progress=False)
+    timing = {"wall_time_s", "assembly_s", "linear_solve_s"}
+    for p, (_, row) in zip(pts, df.iterrows()):
+        rec = solve(Sheet(length=0.3, curvature=2.5), hmax=0.2, refine=p.get("refine", 0),
+                    symmetric=p.get("symmetric", True)).to_record()
+        for k, v in rec.items():
+            if k not in timing:
+                assert row[k] == (pytest.approx(v, rel=1e-9) if isinstance(v, float) else v), k
+    half, whole = df[df.refine == 1].deflection  # symmetric half and whole sheet agree
+    assert half == pytest.approx(whole, rel=1e-7)
+    assert list(df.layers_used[df.refine == 1]) == [2 * df.layers_used[0]] * 2
 
 
 # -- real solves: kill -9 and Dask -------------------------------------------------------------
@@ -359,8 +448,6 @@ def test_kill_9_halfway_then_restart_gives_every_point_exactly_once(killed_and_r
 
 def test_dask_local_cluster_gives_the_process_pool_table(killed_and_resumed, tmp_path):
     distributed = pytest.importorskip("distributed")
-    import logging
-
     pool = pd.read_csv(killed_and_resumed["table"])
     with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
                                   dashboard_address=None, silence_logs=logging.ERROR) as cluster:
@@ -392,7 +479,8 @@ def _crashing_task(points):
 @pytest.mark.slow  # about 5 worker processes start (10 s on a busy 2-core machine)
 def test_a_point_that_kills_its_worker_is_a_failed_row_and_the_rest_go_on():
     pts = grid(length=[0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
-    recs = [r for batch in sw._pool(sw._chunks(pts, 2, chunk_size=2), 2, task=_crashing_task)
+    recs = [r for batch in runner.pool(sw._chunks(pts, 2, chunk_size=2), 2,
+                                       task=_crashing_task, failed=sw._failed)
             for r in batch]
     assert sorted(r["key"] for r in recs) == sorted(point_key(p) for p in pts)  # each once
     by = {r["length"]: r for r in recs}

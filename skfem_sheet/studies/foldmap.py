@@ -6,8 +6,9 @@ and the gravity-dominated one from a long sheet with decreasing L, and locates
 their folds, the standout length ``L1*`` and the pop-up length ``L0*``
 (paper, Figs. 6 and 7).  :func:`fold_map` runs the points in parallel (local
 processes, or a Dask cluster) into one tidy table, one row per point, with
-both branch curves ``d(L)`` stored in it; it uses the same journal as
-:func:`skfem_sheet.sweep.run_sweep`, so an interrupted map resumes where it
+both branch curves ``d(L)`` stored in it; it runs on the same runner as
+:func:`skfem_sheet.studies.sweep.run_sweep` (:mod:`skfem_sheet.studies.runner`:
+journal, atomic table, executors), so an interrupted map resumes where it
 stopped and a finished one computes nothing again.
 
 From the table:
@@ -18,14 +19,14 @@ From the table:
   at given lengths -- the markers of Fig. 6;
 - :func:`branch_curve`: the branch data ``(L, d, stable)`` of a row.
 
-Command line::
+Command line (:mod:`skfem_sheet.cli.fold_map`)::
 
     python -m skfem_sheet fold-map --tip-widths 0.5:1:0.1 --curvatures 1,2.5,5 \\
         --hmax 0.1 --table foldmap.csv [--workers N] [--scheduler tcp://host:port]
 
 Examples
 --------
->>> from skfem_sheet.foldmap import map_points, fold_map
+>>> from skfem_sheet.studies.foldmap import map_points, fold_map
 >>> pts = map_points(tip_widths=[0.0], curvatures=[2.5], lengths=(0.8, 1.0), hmax=0.15,
 ...                  step=0.2)
 >>> df = fold_map(pts, workers=1, progress=False)
@@ -38,15 +39,29 @@ import itertools
 import json
 import math
 import time
-from datetime import datetime, timezone
 
 import numpy as np
 
-from .params import ParameterError
-from . import sweep as _sweep
+from ..bistability import fold_lengths
+from ..params import ParameterError
+from ..version import __version__
+from .runner import (
+    MAX_POINTS,
+    Job,
+    as_values,
+    check_table,
+    execute,
+    finish_record,
+    hash_key,
+    key_value,
+    normalize_params,
+    record_failure,
+    typed_frame,
+    utc_now,
+)
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
-           "transition_length", "modes", "critical_tip_width", "add_fold_map_subparser"]
+           "transition_length", "modes", "critical_tip_width"]
 
 #: Input parameters of a map point and their defaults.
 MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
@@ -58,10 +73,14 @@ _NUMERIC = ("tip_width", "curvature", "length_min", "length_max", "hmax", "step"
 #: Columns of the table, in order.  ``curvature_dominated`` and
 #: ``gravity_dominated`` hold the branch curves as JSON
 #: (``{"lengths": [...], "deflection": [...], "stable": [...]}``, see
-#: :func:`branch_curve`).
+#: :func:`branch_curve`).  ``curvature_dominated_snapped`` and
+#: ``gravity_dominated_snapped`` say whether that branch did not exist at its
+#: start (``length_min``, resp. ``length_max``): the sheet snapped to the other
+#: branch at once (``Branch.start_snapped``; empty when the point failed).
 MAP_COLUMNS = (*MAP_PARAMETERS, "popup_length", "standout_length", "bistable",
                "bistable_width", "transition_length", "converged", "message",
                "curvature_dominated_reason", "gravity_dominated_reason",
+               "curvature_dominated_snapped", "gravity_dominated_snapped",
                "curvature_dominated", "gravity_dominated", "newton_iterations", "wall_time_s",
                "version", "key", "error", "finished_at")
 _FLOAT = (*_NUMERIC, "popup_length", "standout_length", "bistable_width", "transition_length",
@@ -72,13 +91,19 @@ _STR = ("solver", "message", "curvature_dominated_reason", "gravity_dominated_re
 
 
 # -- points and keys -------------------------------------------------------------------------
+_SNAPPED = ("curvature_dominated_snapped", "gravity_dominated_snapped")
+#: The sentences of ``message`` that said the same before the flags were columns.
+_NOT_EXISTING = {"curvature_dominated_snapped": "the curvature-dominated branch does not exist",
+                 "gravity_dominated_snapped": "the gravity-dominated branch does not exist"}
+
+
 def _normalize(point) -> dict:
-    return _sweep.normalize_params(point, MAP_PARAMETERS, _NUMERIC, "map point")
+    return normalize_params(point, MAP_PARAMETERS, _NUMERIC, "map point")
 
 
 def _key(point) -> str:
     p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
-    return _sweep.hash_key(["fold-map", *[[k, _sweep._key_value(p[k])] for k in MAP_PARAMETERS]])
+    return hash_key(["fold-map", *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
 
 
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
@@ -97,13 +122,13 @@ def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1,
     >>> len(pts), pts[1]["tip_width"], pts[1]["curvature"], pts[0]["length_max"]
     (4, 1.0, 1.0, 3.0)
     """
-    tw = _sweep._values("tip_widths", tip_widths)
-    cv = _sweep._values("curvatures", curvatures)
+    tw = as_values("tip_widths", tip_widths)
+    cv = as_values("curvatures", curvatures)
     if not (isinstance(lengths, (tuple, list)) and len(lengths) == 2):
         raise ParameterError(f"lengths must be (short, long), got {lengths!r}")
     n = len(tw) * len(cv)
-    if n > _sweep._MAX_POINTS:
-        raise ParameterError(f"the map must have at most {_sweep._MAX_POINTS} points, got {n}")
+    if n > MAX_POINTS:
+        raise ParameterError(f"the map must have at most {MAX_POINTS} points, got {n}")
     return [_normalize(dict(tip_width=b, curvature=c, length_min=lengths[0],
                             length_max=lengths[1], hmax=hmax, layers=layers, step=step, tol=tol,
                             thickness=thickness, modulus=modulus, solver=solver))
@@ -112,12 +137,11 @@ def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1,
 
 # -- one point (runs in the workers) ---------------------------------------------------------
 def _empty_record(point, key):
-    from . import __version__
-
     rec = dict(point)
     rec.update(popup_length=math.nan, standout_length=math.nan, bistable=False,
                bistable_width=math.nan, transition_length=math.nan, converged=False,
                message="", curvature_dominated_reason="", gravity_dominated_reason="",
+               curvature_dominated_snapped=None, gravity_dominated_snapped=None,
                curvature_dominated="", gravity_dominated="", newton_iterations=None,
                wall_time_s=math.nan, version=__version__, key=key, error="")
     return rec
@@ -136,8 +160,6 @@ def _nan(x):
 
 def _run_map_point(point) -> dict:
     """Fold lengths of one normalised map point; every exception becomes a failed record."""
-    from .bistability import fold_lengths
-
     key = _key(point)
     rec = _empty_record(point, key)
     t0 = time.perf_counter()
@@ -161,14 +183,16 @@ def _run_map_point(point) -> dict:
                    bistable=bool(r.bistable), bistable_width=_nan(width),
                    converged=not notes, message="; ".join(notes),
                    curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
+                   curvature_dominated_snapped=bool(up.start_snapped),
+                   gravity_dominated_snapped=bool(down.start_snapped),
                    curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
                    newton_iterations=int(up.newton_iterations
                                          + (down.newton_iterations if down is not up else 0)),
                    wall_time_s=float(r.wall_time_s))
         rec["transition_length"] = _nan(transition_length(rec))
     except Exception as err:  # noqa: BLE001 - one bad point must not stop the map
-        _sweep._record_failure(rec, err, t0)
-    return _sweep._finish(rec)
+        record_failure(rec, err, t0)
+    return finish_record(rec)
 
 
 def _run_map_chunk(points) -> list:
@@ -177,18 +201,30 @@ def _run_map_chunk(points) -> list:
 
 def _failed_map_point(point, message, error):
     rec = _empty_record(point, _key(point))
-    rec.update(message=message, error=error,
-               finished_at=datetime.now(timezone.utc).isoformat(timespec="milliseconds"))
+    rec.update(message=message, error=error, finished_at=utc_now())
+    return rec
+
+
+def _with_flags(rec):
+    """A record with the ``*_snapped`` flags: journal lines written before they
+    were columns say it in ``message`` (the sentences :func:`_run_map_point`
+    writes); a failed point (``error``) leaves them unknown."""
+    if all(k in rec for k in _SNAPPED):
+        return rec
+    rec = dict(rec)
+    for name, sentence in _NOT_EXISTING.items():
+        if name not in rec:
+            rec[name] = None if rec.get("error") else sentence in str(rec.get("message") or "")
     return rec
 
 
 def _frame(records):
-    return _sweep.typed_frame(records, MAP_COLUMNS, floats=_FLOAT, ints=_INT,
-                              bools=("bistable", "converged"), strings=_STR)
+    return typed_frame((_with_flags(r) for r in records), MAP_COLUMNS, floats=_FLOAT, ints=_INT,
+                       bools_or_na=_SNAPPED, bools=("bistable", "converged"), strings=_STR)
 
 
-_MAP_JOB = _sweep._Job(_run_map_chunk, _failed_map_point, _frame, _key,
-                       ("tip_width", "curvature", "converged", "popup_length"), "fold map")
+_MAP_JOB = Job(task=_run_map_chunk, failed=_failed_map_point, frame=_frame, key_of=_key,
+               required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
 
 
 def _chunks(points, n_workers):
@@ -207,10 +243,10 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     table : str or path, optional
         ``.csv`` or ``.parquet`` file, with a journal beside it: points
         already in the journal are not computed again (as in
-        :func:`skfem_sheet.sweep.run_sweep`, whose module docstring describes
-        the journal).
+        :func:`skfem_sheet.studies.sweep.run_sweep`; the journal is described
+        in :mod:`skfem_sheet.studies.runner`).
     workers, scheduler, progress, retry_failed
-        As in :func:`skfem_sheet.sweep.run_sweep`.
+        As in :func:`skfem_sheet.studies.sweep.run_sweep`.
 
     Returns
     -------
@@ -238,11 +274,11 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
                                 or workers < 1):
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = _sweep._check_table(table) if table is not None else None
+    path = check_table(table) if table is not None else None
     keys = [_key(p) for p in points]
-    done, stats = _sweep._execute(points, keys, _MAP_JOB, table=path, workers=workers,
-                                  scheduler=scheduler, progress=progress,
-                                  retry_failed=retry_failed, chunker=_chunks)
+    done, stats = execute(points, keys, _MAP_JOB, table=path, workers=workers,
+                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                          chunker=_chunks)
     df = _frame(done[k] for k in keys)
     df.attrs["fold_map"] = stats
     return df
@@ -377,59 +413,3 @@ def critical_tip_width(df) -> dict:
             est = float(np.clip(est, lo, hi))
         out[float(c)] = (round(float(est), 10), lo, hi)
     return out
-
-
-# -- command line ----------------------------------------------------------------------------
-def add_fold_map_subparser(sub) -> None:
-    p = sub.add_parser(
-        "fold-map", help="pop-up and standout lengths over a grid of (b/a, a/R)",
-        description="Fold lengths L0* (pop-up) and L1* (standout) for every (tip width, "
-                    "curvature) of a grid, in parallel, into a resumable table; prints the "
-                    "critical shape factor (b/a)* of each curvature.")
-    p.add_argument("--tip-widths", default="0.5:1:0.1",
-                   help="b/a values: a list '0.6,0.8,1' or a range 'start:stop:step'")
-    p.add_argument("--curvatures", default="2.5", help="a/R values (list or range)")
-    p.add_argument("--lengths", default="0.5:3", help="search range 'short:long' in L/a")
-    p.add_argument("--hmax", type=float, default=0.1)
-    p.add_argument("--layers", type=int, default=None)
-    p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
-    p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
-    p.add_argument("--solver", default="auto")
-    p.add_argument("--table", default=None, help="results .csv or .parquet (resumable)")
-    p.add_argument("--workers", type=int, default=None)
-    p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
-    p.add_argument("--retry-failed", action="store_true")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=_cli)
-
-
-def _cli(args) -> int:
-    from .bistability import _parse_range
-
-    tip_widths = _sweep.parse_values(args.tip_widths, "tip-widths")
-    curvatures = _sweep.parse_values(args.curvatures, "curvatures")
-    lengths = _parse_range(args.lengths)
-    points = map_points(tip_widths, curvatures, lengths=lengths, hmax=args.hmax,
-                        layers=args.layers, step=args.step, tol=args.tol, solver=args.solver)
-    df = fold_map(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
-                  progress=not args.quiet, retry_failed=args.retry_failed)
-
-    def fmt(x):
-        return "   none" if not np.isfinite(x) else f"{x:7.3f}"
-
-    print(f"hmax = {args.hmax:g}, L/a searched in [{lengths[0]:g}, {lengths[1]:g}]")
-    print("  a/R    b/a   L0* pop-up  L1* standout  bistable  converged")
-    for _, r in df.iterrows():
-        print(f"{r.curvature:5.2f}  {r.tip_width:5.2f}      {fmt(r.popup_length)}       "
-              f"{fmt(r.standout_length)}  {str(bool(r.bistable)):>8}  {str(bool(r.converged)):>9}"
-              + (f"  {r.message}" if r.message else ""))
-    for c, (est, lo, hi) in critical_tip_width(df).items():
-        if np.isfinite(est):
-            print(f"a/R = {c:g}: (b/a)* ~ {est:.3f}, in [{lo:g}, {hi:g}]")
-        elif np.isfinite(lo):
-            print(f"a/R = {c:g}: no bistable shape factor up to b/a = {lo:g}")
-        else:
-            print(f"a/R = {c:g}: bistable down to b/a = {hi:g} (the smallest in the map)")
-    if args.table:
-        print(f"table: {df.attrs['fold_map']['table']}")
-    return 0 if df["converged"].all() else 1

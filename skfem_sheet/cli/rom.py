@@ -1,9 +1,10 @@
-"""Command line of the reduced-order models: ``python -m skfem_sheet rom ...``.
+"""``skfem-sheet rom``: the reduced-order models (see :mod:`skfem_sheet.reduced`).
 
-:func:`add_rom_subparser` registers the ``rom`` command with the sub-commands
+:func:`register` adds the ``rom`` command with the sub-commands
 ``persistence``, ``elastica``, ``cantilever``, ``ribbon`` and ``map``; each sets
-``func`` (``args -> exit code``).  Bad input raises ``ValueError`` (the main
-CLI reports it in one line, exit status 2).  JSON keys are a contract:
+``run`` (``args -> exit code``).  Bad input raises ``ParameterError`` (a
+``ValueError``; the main CLI reports it in one line, exit status 2).  JSON keys
+are a contract:
 
 - persistence: ``persistence_length``, ``persistence_length_asymptotic``
 - elastica, cantilever: ``deflection``
@@ -13,75 +14,33 @@ Examples
 --------
 >>> import argparse
 >>> p = argparse.ArgumentParser(); sub = p.add_subparsers(dest="command")
->>> add_rom_subparser(sub)
+>>> register(sub)
 >>> args = p.parse_args(["rom", "elastica", "--length", "1"])
->>> args.func(args)
+>>> args.run(args)
 elastica: L/a=1 b/a=1 h/a=0.03 E=735 -> d/a = 0.768087 (converged)
 0
 """
 from __future__ import annotations
 
-import json
-import math
 import os
 
 import numpy as np
 
-from skfem_sheet.params import ParameterError, Sheet
+from ..io import write_json
+from ..params import ParameterError, Sheet
+from ..reduced.cantilever import cantilever_deflection
+from ..reduced.elastica import elastica
+from ..reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
+from ..reduced.persistence import persistence_length
+from ..reduced.ribbon import ribbon_continuation
+from .ranges import parse_range
 
-__all__ = ["add_rom_subparser", "parse_range"]
-
-_MAX_POINTS = 10000
-
-
-def parse_range(text, name: str = "--lengths", max_points: int = _MAX_POINTS,
-                slack: float = 1e-9):
-    """Parse ``"a:b:step"`` into the values a, a + step, ..., <= b (b included
-    within ``slack * step``).
-
-    Raises ``ValueError`` naming ``name`` on malformed input or more than
-    ``max_points`` values.
-
-    Examples
-    --------
-    >>> parse_range("1.0:1.1:0.05").tolist()
-    [1.0, 1.05, 1.1]
-    """
-    parts = str(text).split(":")
-    if len(parts) != 3:
-        raise ParameterError(f"{name} must be 'start:stop:step', got {text!r}")
-    try:
-        a, b, step = (float(x) for x in parts)
-    except ValueError:
-        raise ParameterError(f"{name} must be 'start:stop:step' with numbers, got {text!r}") from None
-    if not all(math.isfinite(v) for v in (a, b, step)):
-        raise ParameterError(f"{name} values must be finite, got {text!r}")
-    if step <= 0:
-        raise ParameterError(f"{name} step must be in (0, inf), got {step!r}")
-    if b < a:
-        raise ParameterError(f"{name} stop must be >= start, got {text!r}")
-    n = int(math.floor((b - a) / step + slack)) + 1
-    if n > max_points:
-        raise ParameterError(f"{name} must have at most {max_points} points, got {n}")
-    return np.round(a + step * np.arange(n), 12)
-
-
-def _jsonable(x):
-    """Floats with inf/nan mapped to None (strict JSON)."""
-    if isinstance(x, (list, tuple, np.ndarray)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (bool, np.bool_)):
-        return bool(x)
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    return x
+__all__ = ["register"]
 
 
 def _write_json(path, payload) -> None:
     if path:
-        with open(path, "w") as fh:
-            json.dump({k: _jsonable(v) for k, v in payload.items()}, fh, indent=2)
-            fh.write("\n")
+        write_json(payload, path)
 
 
 def _sheet(args, length=None) -> Sheet:
@@ -97,7 +56,6 @@ def _label(sheet: Sheet) -> str:
 
 # -- commands ------------------------------------------------------------------------
 def _cmd_persistence(args) -> int:
-    from skfem_sheet.reduced.persistence import persistence_length
     sheet = _sheet(args)
     r = persistence_length(sheet)
     _write_json(args.json, {
@@ -111,7 +69,6 @@ def _cmd_persistence(args) -> int:
 
 
 def _cmd_elastica(args) -> int:
-    from skfem_sheet.reduced.elastica import elastica
     sheet = Sheet(length=args.length, tip_width=args.tip_width,
                   thickness=args.thickness, modulus=args.modulus)
     r = elastica(sheet)
@@ -124,7 +81,6 @@ def _cmd_elastica(args) -> int:
 
 
 def _cmd_cantilever(args) -> int:
-    from skfem_sheet.reduced.cantilever import cantilever_deflection
     sheet = _sheet(args)
     r = cantilever_deflection(sheet, include_curved_part=args.include_curved_part)
     _write_json(args.json, {"deflection": r.deflection, "flat_drop": r.flat_drop,
@@ -137,7 +93,6 @@ def _cmd_cantilever(args) -> int:
 
 
 def _cmd_ribbon(args) -> int:
-    from skfem_sheet.reduced.ribbon import ribbon_continuation
     lengths = parse_range(args.lengths, "--lengths")
     template = _sheet(args, length=float(lengths[0]))
     br = ribbon_continuation(template, lengths, args.direction,
@@ -158,7 +113,6 @@ def _cmd_ribbon(args) -> int:
 
 
 def _cmd_map(args) -> int:
-    from skfem_sheet.reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
     lengths = (parse_range(args.lengths, "--lengths") if args.lengths
                else np.linspace(0.8, 2.2, 50))
     widths = (parse_range(args.tip_widths, "--tip-widths") if args.tip_widths
@@ -198,8 +152,8 @@ def _common(parser, length=True, curvature=True, required_curvature=False):
                         help="E/(rho g a) (default 735)")
 
 
-def add_rom_subparser(subparsers) -> None:
-    """Register the ``rom`` command (reduced-order models) on an argparse subparsers object.
+def register(subparsers) -> None:
+    """Add the ``rom`` command (reduced-order models) and its sub-commands.
 
     Parameters
     ----------
@@ -208,26 +162,26 @@ def add_rom_subparser(subparsers) -> None:
     """
     rom = subparsers.add_parser(
         "rom", help="reduced-order models (persistence length, elastica, cantilever, ribbon)",
-        description="Reduced-order models of the curved sheet (issue 7).")
+        description="Reduced-order models of the curved sheet.")
     sub = rom.add_subparsers(dest="rom_command", metavar="MODEL")
     sub.required = True
 
     p = sub.add_parser("persistence", help="gravity-free persistence length L_p")
     _common(p, required_curvature=True)
     p.add_argument("--json", help="write results to this JSON file")
-    p.set_defaults(func=_cmd_persistence)
+    p.set_defaults(run=_cmd_persistence)
 
     p = sub.add_parser("elastica", help="heavy elastica with varying width")
     _common(p, curvature=False)
     p.add_argument("--json", help="write results to this JSON file")
-    p.set_defaults(func=_cmd_elastica)
+    p.set_defaults(run=_cmd_elastica)
 
     p = sub.add_parser("cantilever", help="Euler-Bernoulli cantilever beyond L_p")
     _common(p)
     p.add_argument("--include-curved-part", action="store_true",
                    help="also count the rise W_0(L_p) of the curved part")
     p.add_argument("--json", help="write results to this JSON file")
-    p.set_defaults(func=_cmd_cantilever)
+    p.set_defaults(run=_cmd_cantilever)
 
     p = sub.add_parser("ribbon", help="ribbon model, continuation in L")
     _common(p, length=False)
@@ -236,7 +190,7 @@ def add_rom_subparser(subparsers) -> None:
     p.add_argument("--impose-flat", action="store_true", help="impose c == 0 (heavy elastica)")
     p.add_argument("--elements", type=int, default=24, help="finite elements (default 24)")
     p.add_argument("--json", help="write results to this JSON file")
-    p.set_defaults(func=_cmd_ribbon)
+    p.set_defaults(run=_cmd_ribbon)
 
     p = sub.add_parser("map", help="Fig. 6 deflection map over (L/a, b/a)")
     p.add_argument("--curvature", type=float, required=True, help="a/R")
@@ -248,4 +202,4 @@ def add_rom_subparser(subparsers) -> None:
     p.add_argument("--workers", type=int, default=0, help="processes (default: up to 2)")
     p.add_argument("--csv", help="write the tidy table here")
     p.add_argument("--png", help="draw the colour map here")
-    p.set_defaults(func=_cmd_map)
+    p.set_defaults(run=_cmd_map)

@@ -1,0 +1,64 @@
+"""Command line: ``python -m skfem_sheet`` (also installed as ``skfem-sheet``).
+
+Commands
+--------
+``solve``        one sheet along one load path; ``--json`` / ``--vtu`` / ``--png``
+``demo``         a default sheet (the paper's bistable rectangle, aloft branch):
+                 prints d, writes a PNG picture and a VTU file
+``rom``          reduced-order models (persistence length, cantilever, elastica,
+                 ribbon; see ``skfem_sheet.reduced``)
+``sweep``        a grid of sheets in parallel into one resumable table
+``bistability``  pop-up and standout lengths of one sheet (optional S-curve)
+``fold-map``     pop-up and standout lengths over a grid of (b/a, a/R)
+``figure``       one of the paper's figures
+
+All argument parsing of the package lives here, one module per command; each
+exposes ``register(subparsers)``, which adds the command's parser and sets
+``run`` (``args -> exit code``).  Ranges and lists of values are parsed by
+:mod:`skfem_sheet.cli.ranges`.
+
+Bad arguments give a one-line message naming the parameter and the allowed
+range, and exit code 2 (no traceback).  A solve that does not reach full load
+prints why and exits with code 1 (its JSON says ``"converged": false``).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..params import ParameterError
+from . import bistability, demo, figure, fold_map, rom, solve, sweep
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: The command modules, in the order of ``--help``.
+COMMANDS = (solve, demo, rom, sweep, bistability, fold_map, figure)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit code 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``skfem-sheet`` parser with every command of :data:`COMMANDS`."""
+    parser = _Parser(prog="skfem-sheet", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for command in COMMANDS:
+        command.register(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Entry point; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except ParameterError as err:
+        print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{parser.prog} {args.command}: interrupted", file=sys.stderr)
+        return 130

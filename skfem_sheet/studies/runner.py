@@ -1,0 +1,617 @@
+"""The study runner: many independent points as one resumable, parallel job.
+
+A *study* (the sweep, :mod:`skfem_sheet.studies.sweep`; the fold map,
+:mod:`skfem_sheet.studies.foldmap`) is a list of points (dicts of input
+parameters), each computed on its own into one *record* (a flat dict: the
+parameters and the outputs).  The runner does everything else, the same way
+for every study:
+
+- **keys**: a point is identified by a hash of its normalised parameters
+  (:func:`normalize_params`, :func:`hash_key`); numbers are rounded to 10
+  significant digits, so float noise does not make a new point;
+- **journal**: every finished record is appended at once to a journal beside
+  the table, ``<table>.journal.jsonl`` (:func:`journal_path`): one JSON line,
+  written by the parent process with a single ``os.write`` on an ``O_APPEND``
+  descriptor, then ``os.fsync`` (:class:`Journal`).  A line cut short by a
+  crash is ignored when reading, and lines with the same key are collapsed,
+  the last wins (:func:`read_journal`);
+- **table**: rebuilt from the journal and replaced atomically
+  (:func:`skfem_sheet.io.atomic_write`) every 30 s and at the end, so it is
+  never half written (:func:`write_table`; CSV or Parquet by suffix);
+- **resume**: a point whose key is already in the journal is not computed
+  again (unless ``retry_failed`` and its record is not converged);
+- **executors**: this process (``workers=1``), ``spawn``-ed local processes
+  (:func:`pool`; a point that kills its worker is recorded as failed and the
+  others go on) or a Dask cluster (:func:`dask`);
+- **failures**: an exception while computing a point is put into its record
+  (:func:`record_failure`); every record is stamped when it finishes
+  (:func:`finish_record`: time, host, process) and made JSON-ready.
+
+A study describes its kind of point with a :class:`Job` and calls
+:func:`execute`.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import math
+import multiprocessing
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+import traceback
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from typing import Callable
+
+import pandas as pd
+from tqdm.auto import tqdm
+
+from ..io import atomic_write, check_writable
+from ..params import ParameterError
+
+__all__ = ["Job", "execute", "Journal", "journal_path", "read_journal", "write_table",
+           "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
+           "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
+           "hash_key", "as_values", "pool", "dask", "dask_client", "MAX_POINTS"]
+
+SIGNIFICANT = 10          # digits kept when normalising numbers (the key and the computation)
+MAX_POINTS = 100_000      # largest study accepted
+TABLE_EVERY_S = 30.0      # rewrite the table at most this often while running
+_THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+# -- points and keys -----------------------------------------------------------------------
+def normalize_number(x):
+    """A float rounded to 10 significant digits (non-numbers returned unchanged).
+
+    Examples
+    --------
+    >>> normalize_number(1.3000000000000003), normalize_number(-0.0), normalize_number("a")
+    (1.3, 0.0, 'a')
+    """
+    if isinstance(x, bool) or x is None or isinstance(x, str):
+        return x
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return x
+    if not math.isfinite(v):
+        return v
+    return float(f"{v:.{SIGNIFICANT}g}") + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def normalize_int(x):
+    """A whole number as ``int`` (``2.0`` -> ``2``); anything else unchanged."""
+    if x is None or isinstance(x, (bool, str)):
+        return x
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return x
+    return int(v) if math.isfinite(v) and v.is_integer() else v
+
+
+def normalize_params(point, parameters, numeric, what) -> dict:
+    """``point`` with every name of ``parameters`` (defaults filled in), in
+    their order; the ``numeric`` ones rounded to 10 significant digits,
+    ``layers`` a whole number made ``int``.  ``ParameterError`` for a
+    non-dict or an unknown name (``what`` names the kind of point)."""
+    if not isinstance(point, dict):
+        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
+    unknown = [k for k in point if k not in parameters]
+    if unknown:
+        raise ParameterError(f"{what} parameter {unknown[0]!r} is unknown; "
+                             f"allowed: {', '.join(parameters)}")
+    out = {}
+    for name, default in parameters.items():
+        v = point.get(name, default)
+        if name in numeric:
+            v = normalize_number(v)
+        elif name == "layers":
+            v = normalize_int(v)
+        out[name] = v
+    return out
+
+
+def key_value(v):
+    """A parameter value as it enters a key (JSON-able; non-finite floats as text)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return repr(v)
+    if isinstance(v, (bool, int, float, str)) or v is None:
+        return v
+    return repr(v)
+
+
+def hash_key(items) -> str:
+    """16 hex digits of the SHA-256 of ``items`` as compact JSON (the journal keys)."""
+    text = json.dumps(items, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def as_values(name, v) -> list:
+    """``v`` as a list of values: a single value (number, string, None) is one value."""
+    if isinstance(v, (str, bytes, dict)) or v is None or not hasattr(v, "__iter__"):
+        return [v]
+    vals = list(v)
+    if not vals:
+        raise ParameterError(f"{name} must have at least one value, got an empty list")
+    return vals
+
+
+# -- records -------------------------------------------------------------------------------
+def utc_now() -> str:
+    """The current UTC time as ISO text (milliseconds), the ``finished_at`` stamp."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+def _pyval(x):
+    """numpy scalars to Python (for JSON)."""
+    return x.item() if hasattr(x, "item") and not isinstance(x, (list, tuple, str)) else x
+
+
+def record_failure(rec, err, t0) -> None:
+    """Put an exception raised while computing a point into its record.
+
+    ``message`` (the exception's text), ``error`` (its class), ``wall_time_s``
+    since ``t0`` (``time.perf_counter()``), and the ``traceback`` unless it
+    is a ``ParameterError`` (bad input, not a bug).
+    """
+    rec.update(message=str(err) or type(err).__name__, error=type(err).__name__,
+               wall_time_s=time.perf_counter() - t0)
+    if not isinstance(err, ParameterError):
+        rec["traceback"] = traceback.format_exc()
+
+
+def finish_record(rec) -> dict:
+    """Stamp a finished record (time, host, process) and make it JSON-ready."""
+    rec["finished_at"] = utc_now()
+    rec["host"] = socket.gethostname()
+    rec["pid"] = os.getpid()
+    return {k: _pyval(v) for k, v in rec.items()}
+
+
+# -- journal and table ---------------------------------------------------------------------
+def journal_path(table) -> str:
+    """The journal of ``table``: ``<table>.journal.jsonl``."""
+    return os.fspath(table) + ".journal.jsonl"
+
+
+def read_journal(path, *, key_of, required) -> dict:
+    """Finished points of a journal, ``{key: record}`` in order of first appearance.
+
+    Lines that are not complete JSON records (a write cut short by a crash,
+    garbage) are skipped; for lines with the same key the last one wins.  Keys
+    are recomputed from the parameters stored in each line (``key_of(record)``;
+    lines it refuses with ``ParameterError`` are skipped); lines without the
+    ``required`` fields are skipped.  A missing file is an empty journal.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except FileNotFoundError:
+        return {}
+    out = {}
+    for line in data.split(b"\n"):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+        except (UnicodeDecodeError, json.JSONDecodeError):
+            continue  # a line cut short by a crash, or garbage
+        if not isinstance(rec, dict) or not set(required) <= set(rec):
+            continue
+        try:
+            key = key_of(rec)
+        except ParameterError:
+            continue
+        rec["key"] = key
+        out[key] = rec  # keeps the first position, the last line's values
+    return out
+
+
+class Journal:
+    """Append-only JSON-lines file: one ``os.write`` + ``os.fsync`` per record."""
+
+    def __init__(self, path):
+        self.path = path
+        self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        size = os.fstat(self.fd).st_size
+        if size:
+            with open(path, "rb") as fh:
+                fh.seek(size - 1)
+                last = fh.read(1)
+            if last != b"\n":  # a line cut short by a crash: end it, never extend it
+                os.write(self.fd, b"\n")
+
+    def append(self, rec) -> None:
+        data = (json.dumps(rec, separators=(",", ":")) + "\n").encode()
+        n = os.write(self.fd, data)
+        while n < len(data):  # short writes are rare on files; finish the line
+            n += os.write(self.fd, data[n:])
+        os.fsync(self.fd)
+
+    def close(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+
+
+def typed_frame(records, columns, *, floats=(), ints=(), bools_or_na=(), bools=(),
+                strings=()):
+    """Records as a DataFrame with fixed columns and dtypes (missing values stay
+    missing: NaN floats, nullable ``Int64``/``boolean``, None strings; ``bools``
+    count a missing value as False)."""
+    df = pd.DataFrame.from_records(list(records), columns=list(columns))
+    for c in floats:
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
+    for c in ints:
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
+    for c in bools_or_na:
+        df[c] = df[c].astype("boolean")
+    for c in bools:
+        df[c] = df[c].fillna(False).astype(bool)
+    string = "str" if int(pd.__version__.split(".")[0]) >= 3 else object  # pandas' default
+    for c in strings:
+        df[c] = df[c].astype(object).where(df[c].notna(), None).astype(string)
+    return df
+
+
+def check_table(table) -> str:
+    """Check a study's ``table`` argument up front; returns its path.
+
+    ``.csv`` or ``.parquet`` (which needs pyarrow), in a writable folder, and
+    not an existing file without its journal (which this study would replace).
+    """
+    path = check_writable("table", table, [".csv", ".parquet"])
+    if path.lower().endswith(".parquet"):
+        try:
+            import pyarrow  # noqa: F401  (optional dependency: only to check it is there)
+        except ImportError:
+            raise ParameterError("table: writing .parquet needs pyarrow: pip install "
+                                 "'skfem_sheet[parquet]' (or use a .csv table)") from None
+    if os.path.exists(path) and not os.path.exists(journal_path(path)):
+        raise ParameterError(
+            f"table {path!r} exists without its journal {journal_path(path)!r} (the record of "
+            "finished points): move the table away or choose another name")
+    return path
+
+
+def write_table(df, path) -> None:
+    """Replace ``path`` atomically by ``df`` (CSV or Parquet by suffix)."""
+    if os.fspath(path).lower().endswith(".parquet"):
+        buf = io.BytesIO()
+        df.to_parquet(buf, index=False)
+        atomic_write(path, buf.getvalue())
+    else:
+        atomic_write(path, df.to_csv(index=False))
+
+
+def table_records(done, order) -> list:
+    """This study's points in request order, then older points of the journal."""
+    seen = set(order)
+    return [done[k] for k in order if k in done] + [r for k, r in done.items() if k not in seen]
+
+
+# -- the job -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Job:
+    """How one kind of point is computed, failed, keyed and tabulated.
+
+    Attributes
+    ----------
+    task : callable
+        ``task(points) -> list of records``, a module-level function (so that
+        worker processes can unpickle it); each record holds its ``key`` and
+        ``converged``, and is JSON-ready (:func:`finish_record`).
+    failed : callable
+        ``failed(point, message, error) -> record`` of a point whose task died
+        outside the computation (e.g. its worker process was killed).
+    frame : callable
+        ``frame(records) -> pandas.DataFrame``, the table.
+    key_of : callable
+        ``key_of(record) -> key``, recomputed from a journal line's parameters.
+    required : tuple of str
+        Fields a journal line must have to count.
+    desc : str
+        Label of the progress bar.
+    """
+
+    task: Callable
+    failed: Callable
+    frame: Callable
+    key_of: Callable
+    required: tuple
+    desc: str
+
+
+def execute(points, keys, job, *, table, workers, scheduler, progress, retry_failed, chunker):
+    """Run the points not yet in ``table``'s journal; journal, table and progress bar.
+
+    Parameters
+    ----------
+    points, keys : list
+        Normalised points and their keys (same order; a key may repeat).
+    job : Job
+    table : str or None
+        Checked table path (:func:`check_table`), or None: nothing written,
+        nothing resumed.
+    workers : int or None
+        Local processes (default ``os.cpu_count()``); 1: in this process.
+    scheduler : str, distributed.Client or None
+        A Dask cluster instead (:func:`dask_client`).
+    progress : bool
+    retry_failed : bool
+        Compute again the points whose stored record is not converged.
+    chunker : callable
+        ``chunker(points, n_slots) -> list of lists``: the tasks.
+
+    Returns
+    -------
+    done : dict
+        Every key of the journal (and of this run) -> its record.
+    stats : dict
+        ``new``, ``cached``, ``points`` (distinct), ``table``, ``journal``.
+    """
+    jpath = journal_path(table) if table else None
+    order = list(dict.fromkeys(keys))
+    by_key = dict(zip(keys, points))
+    done = read_journal(jpath, key_of=job.key_of, required=job.required) if jpath else {}
+    todo_keys = [k for k in order if k not in done
+                 or (retry_failed and not done[k].get("converged"))]
+    todo = [by_key[k] for k in todo_keys]
+    n_cached = len(order) - len(todo)
+    n_workers = workers if workers is not None else (os.cpu_count() or 1)
+
+    client, own_client = (None, False)
+    if scheduler is not None:
+        client, own_client = dask_client(scheduler)
+
+    bar = tqdm(total=len(order), initial=n_cached, desc=job.desc, unit="pt", file=sys.stderr,
+               disable=not progress, dynamic_ncols=True)
+    failed = sum(1 for k in order if k in done and k not in todo_keys
+                 and not done[k].get("converged"))
+    bar.set_postfix(failed=failed, refresh=False)
+    journal = Journal(jpath) if jpath else None
+    last_table = time.monotonic()
+    new = 0
+    try:
+        if todo:
+            if client is not None:
+                slots = sum(client.nthreads().values()) or 1
+                results = dask(chunker(todo, slots), client, job.task, job.failed)
+            elif n_workers == 1:
+                results = ([rec] for chunk in chunker(todo, 1) for p in chunk
+                           for rec in job.task([p]))
+            else:
+                results = pool(chunker(todo, n_workers), n_workers, job.task, job.failed)
+            try:
+                for recs in results:
+                    for rec in recs:
+                        if journal is not None:
+                            journal.append(rec)
+                        done[rec["key"]] = rec
+                        new += 1
+                        failed += not rec["converged"]
+                        bar.set_postfix(failed=failed, refresh=False)
+                        bar.update(1)
+                    if table and time.monotonic() - last_table > TABLE_EVERY_S:
+                        write_table(job.frame(table_records(done, order)), table)
+                        last_table = time.monotonic()
+            finally:
+                close = getattr(results, "close", None)
+                if close is not None:
+                    close()  # stops the workers now (also on Ctrl-C)
+    finally:
+        bar.close()
+        if journal is not None:
+            journal.close()
+        if own_client:
+            client.close()
+        if table:
+            # rebuilt from the journal file: also keeps lines appended by others
+            disk = read_journal(jpath, key_of=job.key_of, required=job.required)
+            write_table(job.frame(table_records(disk, order)), table)
+    return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
+                  "journal": jpath}
+
+
+# -- local processes -----------------------------------------------------------------------
+def _watch_parent(parent_pid):
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != parent_pid:
+            os._exit(1)  # the study was killed: do not go on computing for nobody
+
+
+def _init_pool_worker(parent_pid):
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's business
+    # A worker holds both ends of the pool's pipes, so it would wait forever for
+    # work from a parent killed with SIGKILL: it exits when its parent changes.
+    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True).start()
+
+
+@contextlib.contextmanager
+def _thread_env(n):
+    """Set the BLAS/MKL thread counts inherited by spawned workers (unless set)."""
+    saved = {v: os.environ.get(v) for v in _THREAD_VARS}
+    try:
+        for v in _THREAD_VARS:
+            if saved[v] is None:
+                os.environ[v] = str(n)
+        yield
+    finally:
+        for v, old in saved.items():
+            if old is None:
+                os.environ.pop(v, None)
+            else:
+                os.environ[v] = old
+
+
+def _stop_pool(ex, kill):
+    if kill:
+        ex.shutdown(wait=False, cancel_futures=True)
+        terminate = getattr(ex, "terminate_workers", None)  # Python >= 3.14
+        if terminate is not None:
+            terminate()
+        else:
+            for proc in list((getattr(ex, "_processes", None) or {}).values()):
+                proc.terminate()
+            for proc in list((getattr(ex, "_processes", None) or {}).values()):
+                proc.join(5)
+    else:
+        ex.shutdown(wait=True)
+
+
+def pool(chunks, n_workers, task, failed):
+    """Chunks on ``n_workers`` spawned processes; yields lists of records.
+
+    At most ``n_workers`` chunks are in flight.  If a worker process dies (the
+    pool breaks), the points of the chunks in flight are computed again one at
+    a time in a fresh single-process pool, so that only a point that kills its
+    worker on its own is recorded as failed (``failed(point, message,
+    error)``).  Each worker is limited to ``cpu_count // n_workers`` BLAS/MKL
+    threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
+    are set.
+    """
+    ctx = multiprocessing.get_context("spawn")
+
+    def new_pool(n):
+        return ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_pool_worker,
+                                   initargs=(os.getpid(),))
+
+    threads = max(1, (os.cpu_count() or 1) // n_workers)
+    queue = list(reversed(chunks))
+    ex = None
+    with _thread_env(threads):
+        try:
+            ex = new_pool(n_workers)
+            running = {}
+            while queue or running:
+                broken = False
+                while queue and len(running) < n_workers:
+                    try:
+                        fut = ex.submit(task, queue[-1])
+                    except BrokenProcessPool:
+                        broken = True
+                        break
+                    running[fut] = queue.pop()
+                if not broken:
+                    finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                    broken = any(isinstance(f.exception(), BrokenProcessPool) for f in finished)
+                if broken:  # a broken pool ends every future in flight
+                    wait(running, timeout=60)
+                suspects = []
+                for fut in list(running):
+                    if broken and not fut.done():
+                        fut.cancel()
+                        suspects.extend(running.pop(fut))
+                    elif fut.done():
+                        chunk = running.pop(fut)
+                        err = fut.exception()
+                        if err is None:
+                            yield fut.result()
+                        elif isinstance(err, BrokenProcessPool):
+                            suspects.extend(chunk)
+                        else:  # not from a computation (those are caught): e.g. pickling
+                            yield [failed(p, f"the worker failed: {type(err).__name__}: {err}",
+                                          type(err).__name__) for p in chunk]
+                if broken:
+                    _stop_pool(ex, kill=True)
+                    ex = None
+                    yield from _isolated(suspects, new_pool, task, failed)
+                    ex = new_pool(n_workers)
+        except BaseException:
+            if ex is not None:
+                _stop_pool(ex, kill=True)
+                ex = None
+            raise
+        finally:
+            if ex is not None:
+                _stop_pool(ex, kill=False)
+
+
+def _ping():
+    return os.getpid()
+
+
+def _isolated(points, new_pool, task, failed):
+    """Compute points one at a time, each in a fresh worker if the previous one died."""
+    ex = new_pool(1)
+    try:
+        try:
+            ex.submit(_ping).result()
+        except BrokenProcessPool:
+            raise RuntimeError(
+                "sweep worker processes die on start-up; in a script, call run_sweep under "
+                "`if __name__ == '__main__':` (workers are spawned and import the main "
+                "module), or pass workers=1") from None
+        for p in points:
+            try:
+                yield ex.submit(task, [p]).result()
+            except BrokenProcessPool:
+                yield [failed(p, "the worker process died while solving this point "
+                                 "(killed, out of memory or crashed)", "WorkerDied")]
+                _stop_pool(ex, kill=True)
+                ex = new_pool(1)
+    except BaseException:
+        _stop_pool(ex, kill=True)
+        raise
+    _stop_pool(ex, kill=False)
+
+
+# -- Dask ----------------------------------------------------------------------------------
+def dask_client(scheduler):
+    """``(client, own)`` for a scheduler address (a new client, ``own``) or a client."""
+    if not isinstance(scheduler, str):
+        if not hasattr(scheduler, "submit"):
+            raise ParameterError("scheduler must be an address like 'tcp://host:8786' or a "
+                                 f"distributed.Client, got {type(scheduler).__name__}")
+        return scheduler, False
+    try:
+        from distributed import Client  # optional dependency (the 'cluster' extra)
+    except ImportError:
+        raise ParameterError("scheduler needs dask and distributed: "
+                             "pip install 'skfem_sheet[cluster]'") from None
+    try:
+        return Client(scheduler, timeout="20s", set_as_default=False), True
+    except (OSError, TimeoutError, ValueError) as err:
+        raise ParameterError(f"scheduler: cannot connect to {scheduler!r}: {err}") from None
+
+
+def dask(chunks, client, task, failed):
+    """Chunks as Dask tasks; yields lists of records.  A chunk whose task fails
+    is retried point by point; a single point whose task fails is a failed record."""
+    from distributed import as_completed  # optional dependency (the 'cluster' extra)
+
+    futures = {}
+
+    def submit(chunk):
+        fut = client.submit(task, chunk, pure=False)
+        futures[fut] = chunk
+        return fut
+
+    todo = as_completed([submit(c) for c in chunks], loop=client.loop)
+    try:
+        for fut in todo:
+            chunk = futures.pop(fut)
+            try:
+                yield fut.result()
+            except Exception as err:  # noqa: BLE001 - e.g. KilledWorker: not the study's end
+                if len(chunk) > 1:
+                    for p in chunk:
+                        todo.add(submit([p]))
+                else:
+                    yield [failed(chunk[0], f"the Dask task failed: {type(err).__name__}: "
+                                            f"{err}", type(err).__name__)]
+    except BaseException:
+        client.cancel(list(futures))
+        raise

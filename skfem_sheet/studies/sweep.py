@@ -1,0 +1,456 @@
+"""Parameter sweeps: a grid of sheets solved in parallel into one resumable table.
+
+:func:`grid` expands parameter lists into points (their cartesian product);
+:func:`run_sweep` solves them on local processes (default), in this process
+(``workers=1``) or on a Dask cluster (``scheduler=``), and returns one tidy
+:class:`pandas.DataFrame` (one row per point).  With ``table="results.csv"``
+(or ``.parquet``) the results survive interruption (the journal, the atomic
+table and the executors are those of :mod:`skfem_sheet.studies.runner`):
+
+- every finished point is appended at once to a journal beside the table,
+  ``results.csv.journal.jsonl`` (one JSON line per point, fsync-ed).  A line
+  cut short by a crash is ignored when reading, and lines with the same key
+  are collapsed (the last wins);
+- the table is rebuilt from the journal and replaced atomically every 30 s
+  and at the end, so it is never half written;
+- a point whose key is already in the journal is not computed again, so a sweep
+  killed in any way (Ctrl-C, ``kill -9``, a lost machine) resumes where it
+  stopped, and re-running a finished sweep computes nothing.
+
+A point is identified by ``key``, a hash of its input parameters (``length,
+tip_width, curvature, thickness, modulus, path, hmax, layers, solver``, and the
+solve options :data:`OPTIONS` -- ``refine``, ``symmetric`` -- when they differ
+from ``solve``'s defaults) after normalisation: numbers are rounded to 10
+significant digits (and ``-0.0`` is ``0.0``, ``2.0`` layers is ``2``), so
+``1.3``, ``1.30000000001`` and ``np.arange(...)``'s ``1.3000000000000003`` are
+the same point.  The rounded values are the ones solved and stored in the
+table.  A solve option at its default is left out of the point (and of the
+key), so points from before it could be swept keep their keys.  The package
+version is a column, not part of the key: re-running after an upgrade reuses
+old results (start a new table to recompute them).
+
+A failed solve (full load not reached), a bad parameter (``ParameterError``)
+and any other exception raised while solving one point are rows with
+``converged=False`` and the reason in ``message`` (the exception class in
+``error``); the sweep carries on.  They are finished points too: pass
+``retry_failed=True`` to compute them again.  Ctrl-C stops the sweep at once
+(finished points are kept; the table is written) and re-raises
+``KeyboardInterrupt``.
+
+Columns of the table (:data:`COLUMNS`): the parameters (:data:`PARAMETERS`,
+then :data:`OPTIONS`), then the outputs of
+:meth:`skfem_sheet.solve.Result.to_record` -- the one definition of a result
+row: ``deflection`` (d/a, positive down), ``converged``, ``message``,
+``branch`` (``Result.branch``: "curvature-dominated" or "gravity-dominated",
+the load path's own branch, switched when the path snapped -- a label of the
+load path, not a classification of the shape: a long sheet whose
+curvature-first path droops gradually, without a detected snap, keeps the label
+"curvature-dominated"; for the physical modes use the fold map,
+:func:`skfem_sheet.studies.foldmap.modes`), ``stable`` (``Result.stable``,
+empty when unknown), ``negative_eigenvalues``, ``snapped``,
+``newton_iterations``, ``load_steps``, ``wall_time_s``, ``assembly_s``,
+``linear_solve_s``, ``dofs``, ``energy``, ``volume_change``, ``kappa_reached``,
+``gravity_reached``, ``factorizations``, ``rejected_steps``, ``linear_solver``
+(back-end used), ``layers_used`` -- and ``version``, ``key``, ``error``,
+``finished_at`` (UTC).  The journal lines also hold ``host``, ``pid`` and, for
+exceptions, ``traceback``.
+
+Work is grouped by mesh (``length, tip_width, thickness, hmax, layers, refine,
+symmetric``): the points of one mesh go to the same worker in sequence, in
+chunks, and reuse its cached mesh.  Local workers are ``spawn``-ed processes
+(safe with MKL and gmsh), each limited to ``cpu_count // workers`` BLAS/MKL
+threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
+are set (Dask workers get one thread from their nanny).  Results do not depend
+on the executor.  Dask needs the ``cluster`` extra: ``pip install
+'skfem_sheet[cluster]'``; Parquet tables need ``pip install 'skfem_sheet[parquet]'``.
+
+Command line (:mod:`skfem_sheet.cli.sweep`)::
+
+    python -m skfem_sheet sweep --lengths 0.5:1.5:0.25 --tip-widths 1,0 \\
+        --curvatures 0,2.5 --paths both --hmax 0.1 --table out.csv \\
+        [--refine 0,1] [--symmetric both] \\
+        [--workers N] [--scheduler tcp://host:port] [--retry-failed] [--quiet]
+
+Examples
+--------
+>>> from skfem_sheet.studies.sweep import grid, run_sweep
+>>> points = grid(length=0.3, curvature=[0.0, 2.5], hmax=0.2)
+>>> len(points), points[1]["curvature"], points[1]["path"]
+(2, 2.5, 'curvature-first')
+>>> df = run_sweep(points, workers=1, progress=False)
+>>> df[["curvature", "converged", "branch"]].values.tolist()
+[[0.0, True, 'curvature-dominated'], [2.5, True, 'curvature-dominated']]
+"""
+from __future__ import annotations
+
+import inspect
+import itertools
+import math
+import time
+
+import numpy as np
+
+from ..continuation import PATHS
+from ..linalg import SOLVERS, available_solvers
+from ..mesh import estimate_dofs
+from ..params import ParameterError, Sheet
+from ..solve import MAX_DOFS, Result, solve
+from ..version import __version__
+from .runner import (
+    MAX_POINTS,
+    Job,
+    as_values,
+    check_table,
+    execute,
+    finish_record,
+    hash_key,
+    journal_path,
+    key_value,
+    normalize_int,
+    normalize_number,
+    normalize_params,
+    record_failure,
+    typed_frame,
+    utc_now,
+)
+from .runner import read_journal as _read_journal
+
+__all__ = ["grid", "run_sweep", "point_key", "normalize_point", "read_journal",
+           "journal_path", "check_point", "PARAMETERS", "OPTIONS", "COLUMNS"]
+
+#: Input parameters of a point, with their defaults (those of Sheet and solve).
+#: ``length`` has no default.
+PARAMETERS = {"length": None, "tip_width": 1.0, "curvature": 0.0, "thickness": 0.03,
+              "modulus": 735.0, "path": "curvature-first", "hmax": 0.03, "layers": None,
+              "solver": "auto"}
+_NUMERIC = ("length", "tip_width", "curvature", "thickness", "modulus", "hmax")
+_SHEET = ("length", "tip_width", "curvature", "thickness", "modulus")
+
+_SOLVE_DEFAULTS = {name: p.default for name, p in inspect.signature(solve).parameters.items()
+                   if p.default is not inspect.Parameter.empty}
+#: Solve options that can be swept, with their defaults: the keyword arguments
+#: of :func:`~skfem_sheet.solve.solve` that :meth:`Result.to_record` reports
+#: (a new one there is a new sweep parameter here).  In a point only when not
+#: at the default.
+OPTIONS = {name: _SOLVE_DEFAULTS[name] for name, _, _ in Result.RECORD_FIELDS
+           if name in _SOLVE_DEFAULTS and name not in PARAMETERS}
+
+#: Kinds of the outputs of a row (``Result.to_record`` minus the parameters).
+_OUTPUTS = {name: kind for name, kind, _ in Result.RECORD_FIELDS
+            if name not in PARAMETERS and name not in OPTIONS}
+_KINDS = {**{name: kind for name, kind, _ in Result.RECORD_FIELDS}, "layers": "int",
+          "solver": "str", "version": "str", "key": "str", "error": "str",
+          "finished_at": "str"}
+
+#: Parameters that fix the mesh: points sharing them reuse a worker's cached mesh.
+_MESH = ("length", "tip_width", "thickness", "hmax", "layers", *OPTIONS)
+_PATHS = ("curvature-first", "gravity-first")
+
+#: Columns of the table, in order.
+COLUMNS = (*PARAMETERS, *OPTIONS, *_OUTPUTS, "version", "key", "error", "finished_at")
+
+
+def _of_kind(kind):
+    return tuple(c for c in COLUMNS if _KINDS[c] == kind)
+
+
+# -- points, keys ----------------------------------------------------------------------
+def _norm_option(v, default):
+    """An option value normalised like its default (bool, whole number, float)."""
+    if isinstance(default, bool):
+        return bool(v) if isinstance(v, (bool, np.bool_)) else v
+    if isinstance(default, int):
+        return normalize_int(v)
+    if isinstance(default, float):
+        return normalize_number(v)
+    return v
+
+
+def normalize_point(point) -> dict:
+    """A point with every parameter present, in order, and numbers normalised.
+
+    Missing parameters get their defaults (:data:`PARAMETERS`); numbers are
+    rounded to 10 significant digits; ``layers`` that are whole numbers become
+    ``int``.  The solve options (:data:`OPTIONS`) follow, normalised the same
+    way, only those that differ from their defaults.  Raises ``ParameterError``
+    for an unknown parameter name or a missing ``length``.
+
+    Examples
+    --------
+    >>> normalize_point({"length": 1.3000000000000003, "layers": 2.0})
+    ... # doctest: +NORMALIZE_WHITESPACE
+    {'length': 1.3, 'tip_width': 1.0, 'curvature': 0.0, 'thickness': 0.03,
+     'modulus': 735.0, 'path': 'curvature-first', 'hmax': 0.03, 'layers': 2,
+     'solver': 'auto'}
+    >>> normalize_point({"length": 1.0, "refine": 1.0, "symmetric": True})["refine"]
+    1
+    """
+    if not isinstance(point, dict):
+        raise ParameterError(f"points must be dicts of parameters, got {type(point).__name__}")
+    unknown = [k for k in point if k not in PARAMETERS and k not in OPTIONS]
+    if unknown:
+        raise ParameterError(f"point parameter {unknown[0]!r} is unknown; "
+                             f"allowed: {', '.join([*PARAMETERS, *OPTIONS])}")
+    out = normalize_params({k: v for k, v in point.items() if k in PARAMETERS}, PARAMETERS,
+                           _NUMERIC, "point")
+    if "length" not in point:
+        raise ParameterError("every point needs a length")
+    for name, default in OPTIONS.items():
+        if name in point:
+            v = _norm_option(point[name], default)
+            if not (type(v) is type(default) and v == default):
+                out[name] = v
+    return out
+
+
+def point_key(point) -> str:
+    """Stable hash (16 hex digits) of a point's normalised input parameters.
+
+    Examples
+    --------
+    >>> point_key({"length": 1.3}) == point_key({"length": 1.30000000001, "curvature": -0.0})
+    True
+    >>> point_key({"length": 1.3}) == point_key({"length": 1.31})
+    False
+    >>> point_key({"length": 1.3}) == point_key({"length": 1.3, "refine": 0})
+    True
+    """
+    p = normalize_point(point)
+    return hash_key([[k, key_value(p[k])] for k in PARAMETERS]
+                    + [[k, key_value(p[k])] for k in OPTIONS if k in p])
+
+
+def grid(length, tip_width=1.0, curvature=0.0, thickness=0.03, modulus=735.0,
+         path="curvature-first", hmax=0.03, layers=None, solver="auto", **options) -> list:
+    """The cartesian product of parameter values, as a list of points (dicts).
+
+    Every argument is a single value or a list (tuple, array, range) of values;
+    ``path="both"`` means both load paths; ``options`` are solve options
+    (:data:`OPTIONS`: ``refine``, ``symmetric``).  Points come in the order of
+    nested loops over the arguments in signature order (``length`` outermost,
+    then ``solver``, then the options innermost), normalised (see
+    :func:`normalize_point`).  Values are not checked here: a bad one becomes a
+    failed row in :func:`run_sweep`.
+
+    Examples
+    --------
+    >>> pts = grid(length=[1.0, 1.3], tip_width=[1.0, 0.0], curvature=[0.0, 2.5],
+    ...            path="both", hmax=0.1)
+    >>> len(pts), pts[0]["path"], pts[1]["path"], pts[-1]["length"]
+    (16, 'curvature-first', 'gravity-first', 1.3)
+    >>> [p.get("refine", 0) for p in grid(length=1.0, refine=[0, 1])]
+    [0, 1]
+    """
+    for name in options:
+        if name not in OPTIONS:
+            raise TypeError(f"grid() got an unexpected keyword argument {name!r}")
+    args = dict(length=length, tip_width=tip_width, curvature=curvature, thickness=thickness,
+                modulus=modulus, path=path, hmax=hmax, layers=layers, solver=solver,
+                **{name: options[name] for name in OPTIONS if name in options})
+    lists = {}
+    for name, v in args.items():
+        vals = as_values(name, v)
+        if name == "path":
+            vals = [q for p in vals for q in (_PATHS if p == "both" else (p,))]
+        lists[name] = vals
+    n = math.prod(len(v) for v in lists.values())
+    if n > MAX_POINTS:
+        raise ParameterError(f"grid must have at most {MAX_POINTS} points, got {n}")
+    return [normalize_point(dict(zip(lists, combo)))
+            for combo in itertools.product(*lists.values())]
+
+
+def check_point(point) -> None:
+    """Raise ParameterError for a point ``solve`` would refuse (the CLI checks up front).
+
+    The checks are those of :func:`~skfem_sheet.solve.solve`, with the same
+    size estimate (the symmetric half when ``symmetric``, refined ``refine``
+    times): a point that ``solve`` accepts is accepted here.
+    """
+    p = {**OPTIONS, **normalize_point(point)}
+    sheet = Sheet(**{k: p[k] for k in _SHEET})
+    if p["path"] not in PATHS:
+        raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {p['path']!r}")
+    if p["solver"] not in SOLVERS:
+        raise ParameterError(f"solver must be one of {', '.join(SOLVERS)}, got {p['solver']!r}")
+    if p["solver"] != "auto" and p["solver"] not in available_solvers():
+        raise ParameterError(f"solver {p['solver']!r} is not installed here; available: "
+                             f"{', '.join(available_solvers())} (pardiso: pip install "
+                             "'skfem_sheet[fast]')")
+    if not isinstance(p["symmetric"], (bool, np.bool_)):
+        raise ParameterError(f"symmetric must be True or False, got {p['symmetric']!r}")
+    refine = p["refine"]
+    n = estimate_dofs(sheet, p["hmax"], p["layers"], half=bool(p["symmetric"]), refine=refine)
+    if n > MAX_DOFS:
+        what = f"hmax={p['hmax']:g}" + (f" with refine={refine}" if refine else "")
+        raise ParameterError(f"hmax must be larger{' or refine smaller' if refine else ''}: "
+                             f"{what} gives about {n:,} unknowns, "
+                             f"more than the {MAX_DOFS:,} that fit in memory here")
+
+
+# -- one point (runs in the workers) -------------------------------------------------------
+def _record(point, key):
+    """The record of a point before (or without) its solve: outputs missing."""
+    rec = dict(point)
+    for name, default in OPTIONS.items():
+        rec.setdefault(name, default)
+    rec.update({name: math.nan if kind == "float" else False if kind == "bool" else None
+                for name, kind in _OUTPUTS.items()})
+    rec.update(message="", version=__version__, key=key, error="")
+    return rec
+
+
+def _run_point(point) -> dict:
+    """Solve one normalised point; every ``Exception`` becomes a failed record."""
+    key = point_key(point)
+    rec = _record(point, key)
+    t0 = time.perf_counter()
+    try:
+        sheet = Sheet(**{k: point[k] for k in _SHEET})
+        r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
+                  solver=point["solver"], on_failure="return", progress=False,
+                  **{name: rec[name] for name in OPTIONS})
+        rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
+    except Exception as err:  # noqa: BLE001 - one bad point must not stop the sweep
+        record_failure(rec, err, t0)
+    return finish_record(rec)
+
+
+def _run_chunk(points) -> list:
+    """Solve points in sequence (same mesh: the worker's mesh cache is reused)."""
+    return [_run_point(p) for p in points]
+
+
+def _failed(point, message, error):
+    """The record of a point whose task failed outside the solve (e.g. its worker died)."""
+    rec = _record(point, point_key(point))
+    rec.update(message=message, error=error, finished_at=utc_now())
+    return rec
+
+
+# -- journal and table ---------------------------------------------------------------------
+def _sweep_key(rec):
+    return point_key({k: rec[k] for k in (*PARAMETERS, *OPTIONS) if k in rec})
+
+
+def read_journal(path, *, key_of=None, required=("length", "deflection", "converged")) -> dict:
+    """Finished points of a sweep's journal, ``{key: record}`` in order of first appearance.
+
+    See :func:`skfem_sheet.studies.runner.read_journal`; keys are recomputed
+    with ``key_of(record)``, by default :func:`point_key` of the sweep
+    parameters.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> f = os.path.join(tempfile.mkdtemp(), "j.jsonl")
+    >>> with open(f, "w") as fh:
+    ...     _ = fh.write('{"length": 1.0, "deflection": 0.5, "converged": true}\\n{"len')
+    >>> [r["deflection"] for r in read_journal(f).values()]
+    [0.5]
+    """
+    return _read_journal(path, key_of=key_of or _sweep_key, required=required)
+
+
+def _frame(records):
+    """A DataFrame with the table's columns and dtypes (options missing from
+    older journal lines are their defaults)."""
+    return typed_frame(({**OPTIONS, **r} for r in records), COLUMNS, floats=_of_kind("float"),
+                       ints=_of_kind("int"), bools_or_na=_of_kind("bool?"),
+                       bools=_of_kind("bool"), strings=_of_kind("str"))
+
+
+def _chunks(points, n_workers, chunk_size=None):
+    """Group points by mesh (sorted) and cut the groups into chunks."""
+    def orderable(v):
+        return (0, v, "") if isinstance(v, (int, float)) and not isinstance(v, bool) \
+            else (1, 0.0, repr(v))
+
+    def mesh_key(p):
+        return tuple(orderable(p.get(k, OPTIONS.get(k))) for k in _MESH)
+
+    rest = [k for k in PARAMETERS if k not in _MESH]
+    pts = sorted(points, key=lambda p: (mesh_key(p), tuple(orderable(p[k]) for k in rest)))
+    if chunk_size is None:
+        chunk_size = max(1, min(8, math.ceil(len(pts) / (4 * max(1, n_workers)))))
+    out = []
+    for _, group in itertools.groupby(pts, key=mesh_key):
+        group = list(group)
+        out.extend(group[i:i + chunk_size] for i in range(0, len(group), chunk_size))
+    return out
+
+
+_JOB = Job(task=_run_chunk, failed=_failed, frame=_frame, key_of=_sweep_key,
+           required=("length", "deflection", "converged"), desc="sweep")
+
+
+# -- the sweep -----------------------------------------------------------------------------
+def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *,
+              retry_failed=False, chunk_size=None):
+    """Solve every point and return the table (one row per point, in order).
+
+    Parameters
+    ----------
+    points : list of dict
+        Points from :func:`grid`, or dicts of :data:`PARAMETERS` and
+        :data:`OPTIONS` (``length`` required, others default).  The same
+        point given twice is solved once and gives two rows.
+    table : str or path, optional
+        ``.csv`` or ``.parquet`` file for the results, with its journal
+        ``<table>.journal.jsonl`` (see the module docstring): points already in
+        the journal are not computed again.  The table holds every point of
+        the journal (this sweep's first, in order).  Without ``table`` nothing
+        is written and nothing resumes.
+    workers : int, optional
+        Local processes (default ``os.cpu_count()``); 1 solves in this process.
+    scheduler : str or distributed.Client, optional
+        Solve on a Dask cluster instead: its address (``"tcp://host:8786"``)
+        or a client.  Needs the ``cluster`` extra.
+    progress : bool
+        Progress bar on stderr (finished/total, failures).
+    retry_failed : bool
+        Compute again the points whose stored row is not converged.
+    chunk_size : int, optional
+        Points per task (default: up to 8, about four tasks per worker).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`COLUMNS`; ``df.attrs["sweep"]`` holds the counts ``new``
+        and ``cached`` and the ``table`` and ``journal`` paths.
+
+    Raises
+    ------
+    ParameterError
+        For a bad ``points``/``table``/``workers``/``scheduler`` argument (bad
+        parameter values of a point give failed rows instead).
+    KeyboardInterrupt
+        On Ctrl-C, after writing the table of the points finished so far.
+
+    Examples
+    --------
+    >>> df = run_sweep([{"length": 0.3, "hmax": 0.2}], workers=1, progress=False)
+    >>> len(df), bool(df.converged[0]), round(float(df.deflection[0]), 3)
+    (1, True, 0.011)
+    """
+    if isinstance(points, dict):
+        raise ParameterError("points must be a list of dicts (use grid(...)), got one dict")
+    points = [normalize_point(p) for p in points]
+    if len(points) > MAX_POINTS:
+        raise ParameterError(f"points must be at most {MAX_POINTS}, got {len(points)}")
+    if scheduler is not None and workers is not None:
+        raise ParameterError("workers must not be given with scheduler (Dask decides)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
+        raise ParameterError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
+    path = check_table(table) if table is not None else None
+
+    keys = [point_key(p) for p in points]
+    done, stats = execute(points, keys, _JOB, table=path, workers=workers, scheduler=scheduler,
+                          progress=progress, retry_failed=retry_failed,
+                          chunker=lambda todo, n: _chunks(todo, n, chunk_size))
+    df = _frame(done[k] for k in keys)
+    df.attrs["sweep"] = stats
+    return df
