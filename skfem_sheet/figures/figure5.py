@@ -29,6 +29,10 @@ from .style import (COLUMN_WIDTH, STYLE, draw_row, fmt, footnote, hmax_of, new_f
 
 __all__ = ["fig5_points", "fig5_ribbon", "draw_fig5", "fig5"]
 
+#: Columns of the ribbon-curve cache.
+_RIBBON_FIELDS = ("tip_width", "curvature", "direction", "length", "deflection", "converged",
+                  "jumped")
+
 
 def fig5_points(quality: str = "quick") -> list:
     """Fold-map points of Fig. 5: fig2's at a/R = 1 and 2.5.
@@ -39,10 +43,6 @@ def fig5_points(quality: str = "quick") -> list:
     True
     """
     return [p for p in fig2_points(quality) if p["curvature"] in (1.0, 2.5)]
-
-
-_RIBBON_FIELDS = ("tip_width", "curvature", "direction", "length", "deflection", "converged",
-                  "jumped")
 
 
 def fig5_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):

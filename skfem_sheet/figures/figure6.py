@@ -26,6 +26,9 @@ from .style import COLUMN_WIDTH, STYLE, fmt, footnote, halo, hmax_of, new_figure
 
 __all__ = ["fig6_points", "fig6_ribbon", "draw_fig6", "fig6"]
 
+#: The clamp curvatures of the two panels.
+_FIG6_CURVATURES = (2.5, 5.0)
+
 
 def fig6_points(quality: str = "quick") -> list:
     """Fold-map points of Fig. 6: every shape factor of the grid at a/R = 2.5 and 5.
@@ -36,9 +39,6 @@ def fig6_points(quality: str = "quick") -> list:
     ([2.5, 5.0], 18)
     """
     return map_grid_points(quality, lambda c, b: c in (2.5, 5.0))
-
-
-_FIG6_CURVATURES = (2.5, 5.0)
 
 
 def _fig6_ribbon_grid(quality):
