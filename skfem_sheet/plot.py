@@ -1,18 +1,21 @@
-"""Pictures of deformed sheets (matplotlib, no screen needed)."""
+"""Pictures of deformed sheets (matplotlib, no screen needed).
+
+Matplotlib is imported inside :func:`plot_sheet`, deliberately: its import
+cost is paid only when a picture is drawn, after the backend is chosen.
+"""
 from __future__ import annotations
 
 import numpy as np
+from skfem import MeshTet
 
-__all__ = ["top_surface", "plot_sheet"]
+from .io import check_writable, whole_sheet_fields
+
+__all__ = ["top_surface", "shaded", "plot_sheet"]
 
 
 def top_surface(result):
     """Deformed top surface ``z = h/2``: vertices (n, 3), triangles (m, 3) and
     psi/mu of the tetrahedron under each triangle."""
-    from skfem import MeshTet
-
-    from .io import whole_sheet_fields
-
     h = result.problem.sheet_mesh.thickness
     p, t, U, _, psi = whole_sheet_fields(result)
     mesh = MeshTet(p, t) if result.problem.sheet_mesh.half else result.problem.sheet_mesh.mesh
@@ -24,8 +27,29 @@ def top_surface(result):
     return mesh.p.T + U, tri, psi[elem]
 
 
-def _shaded(rgba, faces, light=(-0.4, -0.5, 0.77)):
-    """Lambert shading of face colours (both sides lit)."""
+def shaded(rgba, faces, light=(-0.4, -0.5, 0.77)):
+    """Lambert shading of face colours (both sides lit).
+
+    Parameters
+    ----------
+    rgba : ndarray (m, 4)
+        Colours of the faces.
+    faces : ndarray (m, 3, 3)
+        Vertices of each triangle.
+    light : 3-sequence
+        Direction of the light.
+
+    Returns
+    -------
+    ndarray (m, 4)
+        The colours darkened by ``0.45 + 0.55 |n . l|`` (``n`` the unit normal).
+
+    Examples
+    --------
+    >>> faces = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], float)
+    >>> shaded(np.ones((1, 4)), faces, light=(0, 0, 1)).tolist()
+    [[1.0, 1.0, 1.0, 1.0]]
+    """
     n = np.cross(faces[:, 1] - faces[:, 0], faces[:, 2] - faces[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     lam = 0.45 + 0.55 * np.abs(n @ (np.asarray(light) / np.linalg.norm(light)))
@@ -50,15 +74,13 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib
+    import matplotlib  # deferred: import cost (see the module docstring)
 
     if filename is not None:
-        from .io import check_writable
-
         check_writable("filename", filename, [".png", ".pdf", ".svg"])
     if filename is not None and ax is None:
         matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred: after the backend is chosen
     from matplotlib import cm, colors
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -72,7 +94,7 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     norm = colors.Normalize(0.0, vmax)
     cmap = matplotlib.colormaps["viridis"]
     faces = X[tri]
-    poly = Poly3DCollection(faces, facecolors=_shaded(cmap(norm(psi)), faces), linewidths=0)
+    poly = Poly3DCollection(faces, facecolors=shaded(cmap(norm(psi)), faces), linewidths=0)
     ax.add_collection3d(poly)
     lo, hi = X.min(axis=0), X.max(axis=0)
     span = max(hi - lo)

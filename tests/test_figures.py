@@ -7,8 +7,12 @@ contract (both branch curves as JSON, folds, stability), while the real
 journal and table are used, so these tests run in seconds; the drawing tests
 build small map tables directly.  One test runs a real (tiny) map point.
 """
+import ast
+import inspect
 import json
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +21,9 @@ pd = pytest.importorskip("pandas")
 
 from skfem_sheet import figures  # noqa: E402
 from skfem_sheet.cli import main  # noqa: E402
+from skfem_sheet.figures import cache, figure3  # noqa: E402
+from skfem_sheet.figures.figure7 import region_mesh  # noqa: E402
+from skfem_sheet.params import ParameterError  # noqa: E402
 from skfem_sheet.studies import foldmap  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -71,7 +78,9 @@ def synthetic_row(point):
         d = _gravity(L, b, c) if c == 0 else np.where(L < t, _aloft(L, c), _gravity(L, b, c))
         rec.update(curvature_dominated=_curve(L, d), gravity_dominated=_curve(L[::-1], d[::-1]),
                    transition_length=math.nan if c == 0 else t)
-    rec.update(converged=True, newton_iterations=10, wall_time_s=1.0)
+    # neither branch started on the other one (the fold map's ``start_snapped`` flags)
+    rec.update(converged=True, newton_iterations=10, wall_time_s=1.0,
+               curvature_dominated_snapped=False, gravity_dominated_snapped=False)
     return rec
 
 
@@ -388,7 +397,7 @@ def test_fig7_surfaces_only_where_bistable(tmp_path):
     assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()) == ("$b/a$", "$a/R$", "$L/a$")
     assert "standout" in fig._suptitle.get_text() and "pop-up" in fig._suptitle.get_text()
     region = figures.bistable_region(df)
-    nodes, tris = figures._region_mesh(region)
+    nodes, tris = region_mesh(region)
     bistable = {(b, c) for c, bs in grid.items() for b in bs if _folds(b, c) is not None}
     critical = {(round(b, 9), round(c, 9)) for b, c, _ in region["critical"]}
     # every node is a bistable (b, a/R) or a point of the critical curve, and every
@@ -464,3 +473,170 @@ def test_with_a_real_map_point(tmp_path):
     again = foldmap.fold_map(pts, table=table, workers=1, progress=False)
     assert again.attrs["fold_map"]["new"] == 0
     assert again["curvature_dominated"][0] == df["curvature_dominated"][0]
+
+
+# -- structured columns, old tables, the cache, the package ----------------------------------
+def _snap_variants():
+    """One non-bistable row (a/R = 2.5, b/a = 0) as a dict, and its two curves' lengths."""
+    (p,) = foldmap.map_points([0.0], [2.5])
+    row = dict(synthetic_row(p))
+    row.pop("curvature_dominated_snapped", None)
+    row.pop("gravity_dominated_snapped", None)
+    return row
+
+
+def _same_branches(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        if isinstance(a[k], tuple):
+            for x, y in zip(a[k], b[k]):
+                np.testing.assert_array_equal(x, y)
+        else:
+            assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k])
+
+
+def test_row_branches_reads_the_snapped_columns():
+    row = _snap_variants()
+    sentence = "the gravity-dominated branch does not exist at L/a = 3 (raise length_max)"
+    full = figures.row_branches(dict(row, curvature_dominated_snapped=False,
+                                     gravity_dominated_snapped=False))
+    assert len(full["curvature_dominated"][0]) and len(full["gravity_dominated"][0])
+    new = figures.row_branches(dict(row, curvature_dominated_snapped=False,
+                                    gravity_dominated_snapped=True))
+    assert len(new["gravity_dominated"][0]) == 0  # started on the other branch: not drawn
+    np.testing.assert_array_equal(new["curvature_dominated"][0], full["curvature_dominated"][0])
+    # the column decides, not the prose: a message alone does not hide a branch of a new row
+    prose = figures.row_branches(dict(row, message=sentence, curvature_dominated_snapped=False,
+                                      gravity_dominated_snapped=False))
+    _same_branches(prose, full)
+    # an old row (no columns, or missing values) is read from its message as before
+    for old in (dict(row, message=sentence),
+                dict(row, message=sentence, curvature_dominated_snapped=None,
+                     gravity_dominated_snapped=pd.NA),
+                dict(row, message=sentence, curvature_dominated_snapped=math.nan,
+                     gravity_dominated_snapped=math.nan)):
+        _same_branches(figures.row_branches(old), new)
+    # both ways through a table, as the drawing reads it
+    df_new = _table({2.5: [0.0]}).assign(curvature_dominated_snapped=False,
+                                         gravity_dominated_snapped=True)
+    df_old = _table({2.5: [0.0]}).assign(message=sentence)
+    lines_new = _row_lines(figures.draw_fig2(df_new).axes[1], 0.0, 2.5)
+    lines_old = _row_lines(figures.draw_fig2(df_old).axes[1], 0.0, 2.5)
+    assert not lines_new["gravity_dominated"] and not lines_old["gravity_dominated"]
+    np.testing.assert_array_equal(_xs(lines_new["curvature_dominated"]),
+                                  _xs(lines_old["curvature_dominated"]))
+    # the boolean column as a CSV gives it back (strings) is read too
+    assert figures.row_branches(dict(row, gravity_dominated_snapped="True"))[
+        "gravity_dominated"][0].size == 0
+
+
+def test_old_curves_with_nan_literals_read_as_null():
+    """Tables written before the one JSON convention hold NaN literals; both read alike."""
+    row = _snap_variants()
+    c = json.loads(row["curvature_dominated"])
+    c["deflection"][1] = math.nan
+    old = json.dumps(c)  # NaN literal
+    assert "NaN" in old
+    from skfem_sheet.io import dumps_json
+
+    new = dumps_json(c, indent=None)  # null
+    assert "NaN" not in new and "null" in new
+    a = figures.row_branches(dict(row, curvature_dominated=old))
+    b = figures.row_branches(dict(row, curvature_dominated=new))
+    _same_branches(a, b)
+    assert np.isnan(a["curvature_dominated"][1]).sum() == 1
+
+
+def test_cached_tables(tmp_path):
+    calls = []
+
+    def compute(n=3):
+        calls.append(n)
+        return pd.DataFrame({"x": np.arange(n, dtype=float), "ok": [True] * n})
+
+    fn = tmp_path / "t.csv"
+    first = cache.cached(fn, compute)
+    again = cache.cached(fn, compute)
+    assert calls == [3] and again.equals(first)
+    # a table that is not the one wanted is recomputed and replaced
+    third = cache.cached(fn, lambda: compute(4), accept=lambda df: len(df) == 4)
+    assert calls == [3, 4] and len(third) == 4 and len(pd.read_csv(fn)) == 4
+    # arrays: a compressed .npz, read back as a dict
+    arrays = {"X": np.eye(3), "message": np.array("hi")}
+    got = cache.cached(tmp_path / "a.npz", lambda: arrays)
+    back = cache.cached(tmp_path / "a.npz", lambda: 1 / 0)
+    np.testing.assert_array_equal(back["X"], got["X"])
+    assert str(back["message"]) == "hi"
+    # a failed computation writes nothing; no temporary file is ever left behind
+    with pytest.raises(ZeroDivisionError):
+        cache.cached(tmp_path / "b.csv", lambda: 1 / 0)
+    assert sorted(os.listdir(tmp_path)) == ["a.npz", "t.csv"]
+    with pytest.raises(ParameterError, match="path must end with .csv or .npz"):
+        cache.cached(tmp_path / "t.json", compute)
+    with pytest.raises(ParameterError, match="a .csv cache holds a DataFrame"):
+        cache.cached(tmp_path / "c.csv", lambda: arrays)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(ParameterError, match="data_dir must be a writable folder"):
+        cache.data_folder(blocker)
+
+
+def test_fig3_surfaces_cached(tmp_path, monkeypatch):
+    calls = []
+
+    def fake(sheet, path, hmax):
+        calls.append((sheet.tip_width, path))
+        X = np.array([[0, -.5, 0], [1, -.5, -.2], [1, .5, -.2], [0, .5, 0.]])
+        X = X * (1 + sheet.tip_width)
+        return {"X": X, "tri": np.array([[0, 1, 2], [0, 2, 3]]), "psi": np.array([.01, .02]),
+                "deflection": 0.2, "converged": True, "message": "", "snapped": False,
+                "hmax": float(hmax)}
+
+    monkeypatch.setattr(figure3, "_solve_surface", fake)
+    first = figures.fig3_data("quick", tmp_path, progress=False)
+    assert len(calls) == 6 and [p for p, *_ in first] == list("defghi")
+    again = figures.fig3_data("quick", tmp_path, progress=False)
+    assert len(calls) == 6  # read from data_dir/fig3-quick/*.npz
+    assert len(os.listdir(tmp_path / "fig3-quick")) == 6
+    for a, b in zip(first, again):
+        np.testing.assert_array_equal(a[4]["X"], b[4]["X"])
+        assert {k: type(v) for k, v in a[4].items() if k not in ("X", "tri", "psi")} == \
+            {k: type(v) for k, v in b[4].items() if k not in ("X", "tri", "psi")} == \
+            {"deflection": float, "converged": bool, "message": str, "snapped": bool,
+             "hmax": float}
+    figures.draw_fig3(again, "quick")
+
+
+def _package_imports():
+    """``{module file: [(imported module, names), ...]}`` of skfem_sheet/figures/."""
+    out = {}
+    for path in sorted(Path(figures.__file__).parent.glob("*.py")):
+        found = []
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found += [(a.name, ()) for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                mod = "." * node.level + (node.module or "")
+                found.append((mod, tuple(a.name for a in node.names)))
+        out[path.name] = found
+    return out
+
+
+def test_figures_package_has_no_argparse_and_one_door_to_the_studies():
+    imports = _package_imports()
+    assert {"__init__.py", "figure2.py", "figure7.py", "cache.py", "data.py"} <= set(imports)
+    for name, found in imports.items():
+        mods = [m for m, _ in found]
+        assert not any(m.split(".")[0] == "argparse" for m in mods), name
+        studies = [(m, n) for m, n in found
+                   if {"foldmap", "sweep", "studies"} & set(m.strip(".").split("."))
+                   or (m.strip(".") in ("", "skfem_sheet") and {"foldmap", "sweep"} & set(n))]
+        assert not studies or name == "data.py", (name, studies)
+        # what a module takes from another is public there
+        private = [(m, n) for m, names in found for n in names if n.startswith("_")
+                   and n != "annotations"]
+        assert not private, (name, private)
+    assert not hasattr(figures, "add_figure_subparser")
+    # the command line calls make_figure with these arguments
+    assert list(inspect.signature(figures.make_figure).parameters) == [
+        "name", "quality", "out", "data_dir", "progress", "workers"]

@@ -1,0 +1,93 @@
+"""The paper's figures, one command each: ``python -m skfem_sheet figure NAME``.
+
+====  ==================================================================  =====================
+name  what it shows (paper caption)                                       data
+====  ==================================================================  =====================
+fig2  d/a against L/a, rectangles (a) and triangles (b),                 fold map
+      a/R in {0, 1, 2.5, 5}; both stable branches where bistable
+fig3  deformed sheets coloured by psi/mu at a/R = 2.5, L/a = 1.3:         six full FE solves
+      rectangle (both modes), triangle, trapezoids b/a = 0.8, 0.6, 0.4
+fig4  d/a against L/a for b/a in {0, 0.2, ..., 1} at a/R = 0 (a) and      fold map
+      2.5 (b); insets against the area A/a^2
+fig5  finite elements against the ribbon model, rectangle and triangle,  fold map + ribbon
+      a/R = 1 and 2.5
+fig6  ribbon-model d/a over (L/a, b/a) at a/R = 2.5 (a) and 5 (b), its   ribbon map + fold map
+      jumps, FE modes (markers) and the FE bistable region
+fig7  the bistable region in (L/a, b/a, a/R): standout L1* (upper) and    fold map
+      pop-up L0* (lower) surfaces meeting on the critical curve
+====  ==================================================================  =====================
+
+Data: every finite-element curve of fig2, fig4-fig7 comes from one fold-map
+table per quality, ``data_dir/foldmap-<quality>.csv``
+(:func:`skfem_sheet.studies.foldmap.fold_map`): for each (b/a, a/R) both stable
+branches as curves d(L) -- the curvature-dominated one followed up from
+``L/a = 0.5`` to its fold ``L1*``, the gravity-dominated one down from
+``L/a = 3`` to its fold ``L0*`` -- with the stability of every point.
+Each figure asks the map for the (b/a, a/R) points it needs; points already
+in the table (its journal) are not recomputed, so drawing twice computes
+nothing twice, and the figures share their points (fig5's are fig2's).
+fig3 keeps its deformed surfaces in ``fig3-<quality>/*.npz``, fig5 its ribbon
+curves in ``fig5-<quality>-ribbon.csv``, fig6 its ribbon map in
+``fig6-<quality>-ribbon.csv``.
+
+Quality: ``"quick"`` is the fold map at hmax 0.1 with continuation steps of
+at most 0.1 in L/a and folds located to +-0.005 (:data:`QUICK_GRID`; 10 s
+to 4.5 min per (b/a, a/R) point on one core, longest for wide, strongly
+curved sheets; the 49 points took 44 min on 2 cores, once; then each figure
+draws in about 5 s from the table, and fig6 adds about 1.5 min for its
+ribbon map the first time).  ``"paper"`` uses hmax
+0.03, steps of 0.05 and finer grids (:data:`PAPER_GRID`; hours on a
+cluster).  Quick figures carry a footnote saying so.
+
+Drawing convention (fig2, fig4, fig5): solid lines and filled markers are
+the curvature-dominated mode, dashed lines and open markers the
+gravity-dominated one, only stable points (stability unknown counts as
+stable).  Where a row is bistable both branches are drawn, each up to its
+fold, with a dotted arrow at each fold for the jump to the other branch;
+elsewhere the two branches coincide and one curve is drawn, solid below the
+transition length and dashed above (:func:`skfem_sheet.studies.foldmap.modes`; at
+a/R = 0 there is no curvature-dominated mode).  Map points that failed are
+left out and counted in the legend.
+
+Modules: one per figure (``figure2`` ... ``figure7``: its points, its data
+and its drawing); ``common`` (qualities, grids, settings), ``data`` (the
+fold-map points, table and rows; the one module that imports the studies),
+``cache`` (the one cached-table helper, written through
+:func:`skfem_sheet.io.atomic_write`), ``style`` (shared drawing), ``registry``
+(:data:`FIGURES`, :func:`make_figure`).  The modules are named ``figureN``,
+not ``figN``, so that ``skfem_sheet.figures.fig2`` stays the function.
+
+Adding a figure: a module ``figureN.py`` with ``figN_points`` (if it reads
+the fold map), ``draw_figN`` (from tables) and ``figN(quality, data_dir,
+progress, workers) -> matplotlib Figure``; add ``figN`` to :data:`FIGURES`
+(the command line's choices are its keys) and its names here.
+
+Examples
+--------
+>>> {"fig2", "fig3", "fig4", "fig5", "fig6", "fig7"} <= set(FIGURES)
+True
+>>> quality_settings("quick")["hmax"]
+0.1
+>>> sorted(QUICK_GRID)
+[0.0, 1.0, 1.5, 2.0, 2.5, 3.5, 5.0]
+"""
+from __future__ import annotations
+
+from .common import DEFAULT_DATA_DIR, PAPER_GRID, QUALITIES, QUICK_GRID, quality_settings
+from .data import fold_map_table, map_grid_points, row_branches
+from .figure2 import draw_fig2, fig2, fig2_points
+from .figure3 import draw_fig3, fig3, fig3_data, fig3_sheets
+from .figure4 import draw_fig4, fig4, fig4_points
+from .figure5 import draw_fig5, fig5, fig5_points, fig5_ribbon
+from .figure6 import draw_fig6, fig6, fig6_points, fig6_ribbon
+from .figure7 import bistable_region, draw_fig7, fig7, fig7_points
+from .registry import FIGURES, make_figure
+from .style import COLUMN_WIDTH, DPI, FULL_WIDTH
+
+__all__ = ["FIGURES", "QUALITIES", "DEFAULT_DATA_DIR", "QUICK_GRID", "PAPER_GRID",
+           "quality_settings", "make_figure", "map_grid_points", "fold_map_table",
+           "fig2", "fig3", "fig4", "fig5", "fig6", "fig7",
+           "fig2_points", "fig4_points", "fig5_points", "fig6_points", "fig7_points",
+           "draw_fig2", "draw_fig3", "draw_fig4", "draw_fig5", "draw_fig6", "draw_fig7",
+           "fig3_sheets", "fig3_data", "fig5_ribbon", "fig6_ribbon", "row_branches",
+           "bistable_region", "COLUMN_WIDTH", "FULL_WIDTH", "DPI"]

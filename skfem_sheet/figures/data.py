@@ -1,0 +1,257 @@
+"""The fold-map data of the figures: which points, their table, and what a row holds.
+
+The one module of :mod:`skfem_sheet.figures` that imports the studies: every
+finite-element curve of fig2 and fig4-fig7 comes from one fold-map table per
+quality (:func:`skfem_sheet.studies.foldmap.fold_map`), read here; the figure
+modules take :func:`map_grid_points`, :func:`fold_map_table`,
+:func:`row_branches` and :data:`foldmap` from this module.
+
+Examples
+--------
+>>> len(map_grid_points("quick"))
+49
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pandas as pd
+
+from ..studies import foldmap
+from .cache import data_folder
+from .common import DEFAULT_DATA_DIR, quality_settings
+
+__all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "branch_snapped",
+           "usable", "select_rows", "as_bool", "fold_lines"]
+
+_MODES = ("curvature_dominated", "gravity_dominated")
+
+
+# -- points and the table ------------------------------------------------------------------
+def map_grid_points(quality: str = "quick", select=None) -> list:
+    """Fold-map points of the quality's grid, optionally only the ``(a/R, b/a)`` ``select``-ed.
+
+    ``select(curvature, tip_width) -> bool`` picks grid points; the points are
+    those of :func:`skfem_sheet.studies.foldmap.map_points` with the quality's
+    lengths, mesh, step and tolerance, so every figure asks for the very
+    same points (same journal keys) as a run over the whole grid.
+
+    Examples
+    --------
+    >>> pts = map_grid_points("quick")
+    >>> len(pts), pts[0]["hmax"], pts[0]["length_min"], pts[0]["length_max"]
+    (49, 0.1, 0.5, 3.0)
+    >>> len(map_grid_points("quick", lambda c, b: c == 2.5))
+    9
+    """
+    s = quality_settings(quality)
+    out = []
+    for c, tips in s["grid"].items():
+        tips = [b for b in tips if select is None or select(c, b)]
+        if tips:
+            out += foldmap.map_points(tips, [c], lengths=s["lengths"], hmax=s["hmax"],
+                                      step=s["step"], tol=s["tol"])
+    return out
+
+
+def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True,
+                   workers=None):
+    """Rows of the quality's fold-map table for ``points`` (computing the missing ones).
+
+    The table is ``data_dir/foldmap-<quality>.csv`` with its journal; points
+    already journalled are read, not recomputed.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per point, in order (:data:`skfem_sheet.studies.foldmap.MAP_COLUMNS`).
+
+    Examples
+    --------
+    >>> df = fold_map_table(fig2_points("quick"), "quick", "skfem_sheet_data")  # doctest: +SKIP
+    """
+    table = os.path.join(data_folder(data_dir), f"foldmap-{quality}.csv")
+    return foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+
+
+# -- reading rows --------------------------------------------------------------------------
+def as_bool(values):
+    """Booleans from a column that may hold bools, 0/1, NA or the strings True/False.
+
+    Examples
+    --------
+    >>> as_bool([True, 0, None, float("nan"), "True", "false"]).tolist()
+    [True, False, False, False, True, False]
+    """
+    out = []
+    for v in values:
+        if isinstance(v, str):
+            out.append(v.strip().lower() in ("true", "1", "yes"))
+        elif v is None or pd.isna(v):
+            out.append(False)
+        else:
+            out.append(bool(v))
+    return np.array(out, dtype=bool)
+
+
+def _text(row, name) -> str:
+    v = row[name] if name in row else ""
+    return v if isinstance(v, str) else ""
+
+
+def _float(v) -> float:
+    return math.nan if v is None else float(v)
+
+
+def usable(row) -> bool:
+    """The row holds branch curves (its computation did not fail).
+
+    Examples
+    --------
+    >>> usable({"error": "", "curvature_dominated": "{}", "gravity_dominated": ""})
+    True
+    >>> usable({"error": "RuntimeError", "curvature_dominated": "{}", "gravity_dominated": ""})
+    False
+    """
+    return not _text(row, "error") and bool(_text(row, "curvature_dominated")
+                                           or _text(row, "gravity_dominated"))
+
+
+def select_rows(df, curvature=None, tip_width=None):
+    """The rows of ``df`` at ``curvature`` and/or ``tip_width`` (compared with ``isclose``)."""
+    sel = np.ones(len(df), dtype=bool)
+    if curvature is not None:
+        sel &= np.isclose(df["curvature"].astype(float), curvature)
+    if tip_width is not None:
+        sel &= np.isclose(df["tip_width"].astype(float), tip_width)
+    return df[sel]
+
+
+def _snapped_from_message(row, which) -> bool:
+    """Compatibility only: whether an OLD fold-map row says ``which`` branch did not exist.
+
+    Tables (and journals) written before the ``curvature_dominated_snapped`` /
+    ``gravity_dominated_snapped`` columns record it only in prose, in
+    ``message``, as the sentence the fold map wrote then ("the
+    curvature-dominated branch does not exist at L/a = ..."); the finished
+    quick map on disk is such a table, so it is read this way rather than
+    recomputed.  New rows carry the boolean columns: see :func:`branch_snapped`.
+    """
+    label = {"curvature_dominated": "curvature-dominated",
+             "gravity_dominated": "gravity-dominated"}[which]
+    return f"the {label} branch does not exist" in _text(row, "message")
+
+
+def branch_snapped(row, which: str) -> bool:
+    """Whether ``which`` branch of a fold-map row did not exist where its continuation started.
+
+    Read from the row's boolean column ``<which>_snapped`` (the branch's
+    ``start_snapped`` flag: its continuation started on the other branch, so
+    its points are the other branch's).  Rows without the column (or with it
+    missing) are old rows: their message is read instead
+    (:func:`_snapped_from_message`).
+
+    Examples
+    --------
+    >>> branch_snapped({"gravity_dominated_snapped": True, "message": ""}, "gravity_dominated")
+    True
+    >>> branch_snapped({"curvature_dominated_snapped": False, "message": ""},
+    ...                "curvature_dominated")
+    False
+    >>> old = {"message": "the gravity-dominated branch does not exist at L/a = 3"}
+    >>> branch_snapped(old, "gravity_dominated"), branch_snapped(old, "curvature_dominated")
+    (True, False)
+    """
+    column = f"{which}_snapped"
+    v = row[column] if column in row else None
+    if v is None or (not isinstance(v, str) and pd.isna(v)):
+        return _snapped_from_message(row, which)
+    return bool(as_bool([v])[0])
+
+
+def row_branches(row) -> dict:
+    """What to draw of one fold-map row: the stable branches and where they part.
+
+    Returns
+    -------
+    dict
+        ``curvature_dominated`` and ``gravity_dominated``: ``(L, d)`` arrays
+        of the stable points (stability unknown counts as stable) of each
+        branch, sorted by L, empty if the branch did not exist where its
+        continuation started (:func:`branch_snapped`: its points would lie
+        on the other branch); ``bistable``; ``popup_length`` (L0*),
+        ``standout_length`` (L1*); ``transition_length`` (non-bistable rows:
+        where the single curve passes from the curvature- to the
+        gravity-dominated mode; None for a flat clamp or no curve);
+        ``usable`` (False for a failed point).
+
+    Examples
+    --------
+    >>> import json
+    >>> curve = json.dumps({"lengths": [1.0, 1.1, 1.2], "deflection": [0.1, 0.2, 0.3],
+    ...                     "stable": [True, None, False]})
+    >>> row = {"bistable": False, "curvature": 2.5, "popup_length": float("nan"),
+    ...        "standout_length": float("nan"), "transition_length": 1.1,
+    ...        "curvature_dominated": curve, "gravity_dominated": curve,
+    ...        "curvature_dominated_snapped": False, "gravity_dominated_snapped": False,
+    ...        "message": "", "error": ""}
+    >>> out = row_branches(row)
+    >>> out["curvature_dominated"][0].tolist(), out["transition_length"]  # unstable dropped
+    ([1.0, 1.1], 1.1)
+    >>> row_branches(dict(row, gravity_dominated_snapped=True))["gravity_dominated"][0].size
+    0
+    """
+    ok = usable(row)
+    out = {"usable": ok, "bistable": bool(row["bistable"]) and ok,
+           "popup_length": _float(row["popup_length"]),
+           "standout_length": _float(row["standout_length"])}
+    for which in _MODES:
+        L, d, st = foldmap.branch_curve(row, which) if ok else (np.empty(0), np.empty(0), [])
+        keep = np.array([s is not False for s in st], dtype=bool)
+        if branch_snapped(row, which):
+            keep[:] = False  # its continuation started on the other branch
+        out[which] = (L[keep], d[keep])
+    t = None
+    if ok and not out["bistable"]:
+        t = _float(row["transition_length"]) if "transition_length" in row else None
+        if t is None or not np.isfinite(t):
+            t = foldmap.transition_length(row)
+        t = None if t is None else float(t)
+    out["transition_length"] = t
+    return out
+
+
+# -- the bistable region ---------------------------------------------------------------------
+def fold_lines(rows, critical):
+    """The bistable region of one curvature's rows in the (b/a, L/a) plane.
+
+    ``critical`` is this curvature's ``(estimate, low, high)`` from
+    :func:`skfem_sheet.studies.foldmap.critical_tip_width`.  Returns ``None``
+    (no bistable row) or a dict: ``b``, ``L0``, ``L1`` of the bistable rows
+    from ``high`` up, ascending in b, and ``tip`` = ``(b*, L*)`` where the
+    two meet (L0* and L1* of the two smallest bistable shape factors
+    extrapolated linearly to b*), None if the map does not bracket b*.
+    """
+    est, lo, hi = critical
+    if not np.isfinite(hi):
+        return None
+    ok = rows[np.array([usable(r) for _, r in rows.iterrows()], dtype=bool)] \
+        if len(rows) else rows
+    ok = ok[as_bool(ok["bistable"]) & (ok["tip_width"].astype(float) >= hi - 1e-9)]
+    ok = ok.sort_values("tip_width")
+    if not len(ok):
+        return None
+    b = ok["tip_width"].to_numpy(float)
+    L0 = ok["popup_length"].to_numpy(float)
+    L1 = ok["standout_length"].to_numpy(float)
+    tip = None
+    if np.isfinite(est):
+        if b.size >= 2:
+            s = (est - b[0]) / (b[1] - b[0])
+            Lstar = 0.5 * (L0[0] + s * (L0[1] - L0[0]) + L1[0] + s * (L1[1] - L1[0]))
+        else:
+            Lstar = 0.5 * (L0[0] + L1[0])
+        tip = (float(est), float(Lstar))
+    return {"b": b, "L0": L0, "L1": L1, "tip": tip}
