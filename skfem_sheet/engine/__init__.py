@@ -2,4 +2,30 @@
 
 Layer 8: natural continuation with fold detection, pseudo-arclength, and fold-curve
 (two-parameter) continuation; knows nothing of the sheet.
+
+Modules
+-------
+:mod:`.protocol`
+    the problem protocol (:class:`Problem`: residual, jacobian, factorize with
+    ``solve``/``inertia``, dresidual, dual/inner, norms) and :class:`Stats`;
+:mod:`.corrector`
+    the one Newton corrector (:func:`correct`, :func:`newton`) and bordered
+    solves (:class:`Bordered`);
+:mod:`.fold`
+    the minimally augmented test function and fold location (:func:`locate_fold`);
+:mod:`.branch`
+    natural (:func:`natural`) and pseudo-arclength (:func:`arclength`) continuation;
+:mod:`.fold_curve`
+    fold curves in two parameters and cusps on them (:func:`fold_curve`).
 """
+from .branch import Branch, BranchPoint, arclength, natural
+from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
+from .fold import FoldPoint, fold_test, locate_fold
+from .fold_curve import Cusp, FoldCurve, FoldCurvePoint, fold_curve
+from .protocol import (DenseFactorization, EngineFailure, FunctionProblem, Problem,
+                       SparseLUFactorization, Stats)
+
+__all__ = ["Problem", "FunctionProblem", "DenseFactorization", "SparseLUFactorization",
+           "Stats", "EngineFailure", "Tolerances", "NewtonResult", "Bordered", "correct",
+           "newton", "FoldPoint", "fold_test", "locate_fold", "BranchPoint", "Branch",
+           "natural", "arclength", "FoldCurvePoint", "Cusp", "FoldCurve", "fold_curve"]
