@@ -197,8 +197,10 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         if locate:
             fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
                                   check_inertia=check_inertia)
-            if fold is not None and -1e-12 <= (fold.value - p[i]) * direction \
-                    <= abs(lam_try - p[i]) * (1 + 1e-9) + 1e-12:
+            # a fold ahead, within the failed step (Newton at fixed parameter
+            # also fails just before a fold, so allow twice the step)
+            ahead = (fold.value - p[i]) * direction if fold is not None else -1.0
+            if fold is not None and -1e-12 <= ahead <= 2 * abs(lam_try - p[i]) + 1e-12:
                 return finish(points, [fold], reason=f"fold at {fold.value:.10g} ({why})",
                               bracket=(float(p[i]), float(lam_try)))
         if abs(lam_try - p[i]) <= min_step * (1 + 1e-9):

@@ -134,7 +134,8 @@ class _FoldSystem:
 
     def sigma_derivatives(self, u, p, v, J):
         c = self.c
-        eps = c.fd_state_step * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
+        eps = (c.fd_state_step * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
+               / max(float(np.abs(v).max()), 1e-300))
         Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
         g_u = -(Jp @ v - Jm @ v) / (2 * eps)
         g_p = []
@@ -157,8 +158,11 @@ class _FoldSystem:
         def matvec(x):
             return J @ x
         sigma, v = fold_test(fact, matvec, self.v0)
-        v = _unit(v)
+        # the derivatives of sigma need the v of its own normalisation (v0 . v = 1)
         g_u, g_p = self.sigma_derivatives(u, p, v, J)
+        scale = float(np.abs(v).max())
+        a = -float(g_u @ v) / scale**3  # for the unit null vector below
+        v = _unit(v)
         R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
         B, C = R_p, g_u[:, None]
         D = g_p[None, :]
@@ -173,7 +177,6 @@ class _FoldSystem:
         du, dq = M.solve(f, np.array(g, dtype=float))
         dp = np.zeros_like(p)
         dp[self.idx] = dq
-        a = -float(g_u @ v)
         self.last = dict(v=v, sigma=sigma, a=a, R_p=R_p, g_u=g_u, g_p=g_p, bordered=M,
                          inertia=fact.inertia())
         self.v0 = v

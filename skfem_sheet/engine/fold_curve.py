@@ -266,10 +266,12 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         except EngineFailure as err:
             return finish(points, cusps, reason=f"tangent: {err}")
         if np.sign(ex["a"]) != np.sign(a_prev) and a_prev != 0:
+            f_cusp = counter.f
             cusp = _locate_cusp(counter, v, idx, t, u, p, h, a_prev, ex["a"], tol, full,
                                 cusp_tol, max_cusp_iterations)
             if cusp is not None:
                 cusps.append(cusp)
+            f0 += counter.f - f_cusp  # the cusp's factorisations are its own
         if not inside(res.p):
             clip = _clip(counter, u, p, res.u, res.p, ex["v"], i, j, (lo_i, hi_i), (lo_j, hi_j),
                          tol)
