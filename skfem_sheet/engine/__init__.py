@@ -15,13 +15,13 @@ Modules
     the minimally augmented test function and fold location (:func:`locate_fold`);
 :mod:`.branch`
     natural (:func:`natural`) and pseudo-arclength (:func:`arclength`) continuation;
-:mod:`.fold_curve`
+:mod:`.curves`
     fold curves in two parameters and cusps on them (:func:`fold_curve`).
 """
 from .branch import Branch, BranchPoint, arclength, natural
 from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
 from .fold import FoldPoint, fold_test, locate_fold
-from .fold_curve import Cusp, FoldCurve, FoldCurvePoint, fold_curve
+from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
 from .protocol import (DenseFactorization, EngineFailure, FunctionProblem, Problem,
                        SparseLUFactorization, Stats)
 

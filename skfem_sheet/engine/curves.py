@@ -137,7 +137,7 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
                ds_max: float = 0.2, direction: int = 1, tol: Tolerances = Tolerances(),
                max_points: int = 500, cusp_tol: float = 1e-9, max_cusp_iterations: int = 40,
                check_inertia=False, inertia_step: float = 1e-4, keep_states: bool = False,
-               progress=None) -> FoldCurve:
+               easy_iterations: int = 3, progress=None) -> FoldCurve:
     """Continue a fold in two parameters, detecting and locating cusps.
 
     Parameters
@@ -162,6 +162,10 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         Factorise on both sides of every fold (True) or of every n-th point (n).
     keep_states : bool
         Keep the state of every point (cusps always keep theirs).
+    easy_iterations : int
+        The step grows (x 1.5) after a point corrected in at most this many
+        Newton iterations, is kept after one more, and shrinks (x 0.7) after
+        more than that.
 
     Returns
     -------
@@ -295,7 +299,10 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         if not keep_states and len(points) > 1:
             pass  # states are not kept: the current one lives in u
         u, p, t, v, a_prev = res.u, res.p, t_new, ex["v"], ex["a"]
-        h = min(ds_max, h * (1.5 if res.iterations <= 3 else 1.0))
+        # aim at easy_iterations to easy_iterations + 1 iterations per point
+        grow = (1.5 if res.iterations <= easy_iterations
+                else 1.0 if res.iterations == easy_iterations + 1 else 0.7)
+        h = min(ds_max, max(ds_min, h * grow))
     return finish(points, cusps, reason="max_points")
 
 
