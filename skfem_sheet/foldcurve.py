@@ -38,7 +38,7 @@ import numpy as np
 from .engine import Problem, Tolerances, fold_curve, natural
 from .params import ParameterError, Sheet, check_range
 
-__all__ = ["SheetFoldProblem", "FoldCurve", "trace_fold_curve", "MIN_SQUEEZE", "TOLERANCES"]
+__all__ = ["MIN_SQUEEZE", "TOLERANCES", "FoldCurve", "SheetFoldProblem", "trace_fold_curve"]
 
 #: Smallest ratio of the tip width to the mesh's tip width (y squeeze at the tip).
 MIN_SQUEEZE = 0.15

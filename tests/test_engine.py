@@ -3,8 +3,17 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from skfem_sheet.engine import (FoldPoint, FunctionProblem, Problem, Tolerances, arclength,
-                                fold_curve, locate_fold, natural, newton)
+from skfem_sheet.engine import (
+    FoldPoint,
+    FunctionProblem,
+    Problem,
+    Tolerances,
+    arclength,
+    fold_curve,
+    locate_fold,
+    natural,
+    newton,
+)
 from skfem_sheet.params import ParameterError
 
 LAM_STAR = 2.0 / (3.0 * np.sqrt(3.0))

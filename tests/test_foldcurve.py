@@ -96,7 +96,7 @@ def test_first_points_of_the_fold_curve_at_a_coarse_mesh(coarse, coarse_fold):
                    ds_max=0.2, direction=-1, tol=TOL, max_points=4, check_inertia=True,
                    easy_iterations=3)
     assert len(c.points) == 4, c.reason
-    L, b = c.params.T
+    b = c.params[:, 1]
     assert b[0] == 1.0 and np.all(np.diff(b) < 0)
     for pt in c.points:
         assert pt.side == -1  # still standout folds, above the cusp

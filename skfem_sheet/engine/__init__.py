@@ -20,12 +20,38 @@ Modules
 """
 from .branch import Branch, BranchPoint, arclength, natural
 from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
-from .fold import FoldPoint, fold_test, locate_fold
 from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
-from .protocol import (DenseFactorization, EngineFailure, FunctionProblem, Problem,
-                       SparseLUFactorization, Stats)
+from .fold import FoldPoint, fold_test, locate_fold
+from .protocol import (
+                       DenseFactorization,
+                       EngineFailure,
+                       FunctionProblem,
+                       Problem,
+                       SparseLUFactorization,
+                       Stats,
+)
 
-__all__ = ["Problem", "FunctionProblem", "DenseFactorization", "SparseLUFactorization",
-           "Stats", "EngineFailure", "Tolerances", "NewtonResult", "Bordered", "correct",
-           "newton", "FoldPoint", "fold_test", "locate_fold", "BranchPoint", "Branch",
-           "natural", "arclength", "FoldCurvePoint", "Cusp", "FoldCurve", "fold_curve"]
+__all__ = [
+                       "Bordered",
+                       "Branch",
+                       "BranchPoint",
+                       "Cusp",
+                       "DenseFactorization",
+                       "EngineFailure",
+                       "FoldCurve",
+                       "FoldCurvePoint",
+                       "FoldPoint",
+                       "FunctionProblem",
+                       "NewtonResult",
+                       "Problem",
+                       "SparseLUFactorization",
+                       "Stats",
+                       "Tolerances",
+                       "arclength",
+                       "correct",
+                       "fold_curve",
+                       "fold_test",
+                       "locate_fold",
+                       "natural",
+                       "newton",
+]

@@ -24,11 +24,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .corrector import Bordered, Tolerances, correct
-from .fold import FoldPoint, locate_fold
+from .corrector import DEFAULT_TOLERANCES, Bordered, Tolerances, correct
+from .fold import locate_fold
 from .protocol import EngineFailure, Stats, _Counting, parameter_index
 
-__all__ = ["BranchPoint", "Branch", "natural", "arclength"]
+__all__ = ["Branch", "BranchPoint", "arclength", "natural"]
 
 
 @dataclass(frozen=True)
@@ -83,7 +83,7 @@ class Branch:
     completed: bool = False
     reason: str = ""
     bracket: tuple = ()
-    stats: Stats = Stats()
+    stats: Stats = field(default_factory=Stats)
 
     @property
     def values(self):
@@ -104,7 +104,7 @@ def _start(counter, u0, p0, tol):
 
 
 def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float = 1e-4,
-            max_step=None, tol: Tolerances = Tolerances(), jump=np.inf, locate: bool = True,
+            max_step=None, tol: Tolerances = DEFAULT_TOLERANCES, jump=np.inf, locate: bool = True,
             check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
             progress=None) -> Branch:
     """Natural continuation in one parameter with fold detection and location.
@@ -226,7 +226,7 @@ def _unit_tangent(counter, t_u, t_p, prev=None):
 
 
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
-              ds_max: float = 0.2, direction: int = 1, tol: Tolerances = Tolerances(),
+              ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
               keep_states: bool = True, progress=None) -> Branch:
     """Pseudo-arclength continuation in one parameter, through folds.

@@ -25,7 +25,7 @@ import numpy as np
 from ..params import ParameterError, check_range
 from .protocol import EngineFailure, Stats, _Counting
 
-__all__ = ["Tolerances", "NewtonResult", "Bordered", "correct", "newton"]
+__all__ = ["Bordered", "NewtonResult", "Tolerances", "correct", "newton"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +63,10 @@ class Tolerances:
             raise ParameterError(f"max_correction must be in (0, inf], got {self.max_correction!r}")
 
 
+#: The default stopping rule of the drivers.
+DEFAULT_TOLERANCES = Tolerances()
+
+
 @dataclass(frozen=True)
 class NewtonResult:
     """Outcome of :func:`newton` (and of every corrector run).
@@ -92,7 +96,7 @@ class NewtonResult:
     reason: str = ""
     history: tuple = ()
     factorization: object = field(default=None, repr=False, compare=False)
-    stats: Stats = Stats()
+    stats: Stats = field(default_factory=Stats)
     extra: object = field(default=None, repr=False, compare=False)
 
 
@@ -208,7 +212,7 @@ def correct(counter: _Counting, u, p, linearize, tol: Tolerances, admissible=Non
     return result(False, "max iterations", tol.max_iterations)
 
 
-def newton(problem, u0, p, *, tol: Tolerances = Tolerances()) -> NewtonResult:
+def newton(problem, u0, p, *, tol: Tolerances = DEFAULT_TOLERANCES) -> NewtonResult:
     """Solve ``R(u, p) = 0`` for ``u`` at fixed parameters ``p``.
 
     Parameters

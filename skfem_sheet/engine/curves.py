@@ -35,11 +35,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .corrector import Tolerances, correct
-from .fold import FoldPoint, _crossing, _FoldSystem, _negative_besides_critical, locate_fold
+from .corrector import DEFAULT_TOLERANCES, Tolerances, correct
+from .fold import (
+    FoldPoint,
+    _crossing,
+    _FoldSystem,
+    _negative_besides_critical,
+    locate_fold,
+)
 from .protocol import EngineFailure, Stats, _Counting, parameter_index
 
-__all__ = ["FoldCurvePoint", "Cusp", "FoldCurve", "fold_curve"]
+__all__ = ["Cusp", "FoldCurve", "FoldCurvePoint", "fold_curve"]
 
 
 @dataclass(frozen=True)
@@ -115,7 +121,7 @@ class FoldCurve:
     cusps: tuple = ()
     completed: bool = False
     reason: str = ""
-    stats: Stats = Stats()
+    stats: Stats = field(default_factory=Stats)
 
     @property
     def params(self):
@@ -134,7 +140,7 @@ def _tangent(counter, M, n, prev_norm_row=None):
 
 
 def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: float = 1e-5,
-               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = Tolerances(),
+               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
                max_points: int = 500, cusp_tol: float = 1e-9, max_cusp_iterations: int = 40,
                check_inertia=False, inertia_step: float = 1e-4, keep_states: bool = False,
                easy_iterations: int = 3, progress=None) -> FoldCurve:
@@ -255,7 +261,6 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     h = ds
     spent = 0  # factorisations of failed attempts, charged to the next point
     while len(points) < max_points:
-        t_u, t_q = t
         f0 = counter.f
         res, ex = _corrected(counter, v, idx, t, u, p, h, tol, full)
         if res is None or not res.converged:
@@ -281,8 +286,8 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
                          tol)
             if clip is not None:
                 fold, r = clip
-                ex_c = dict(v=fold.v, a=fold.a, sigma=fold.sigma, inertia=None,
-                            R_p=counter.dresidual(fold.u, fold.p, i)[:, None])
+                ex_c = {"v": fold.v, "a": fold.a, "sigma": fold.sigma, "inertia": None,
+                        "R_p": counter.dresidual(fold.u, fold.p, i)[:, None]}
                 ex_c["inertia"] = r.factorization.inertia()
                 points.append(make_point(fold.u, fold.p, ex_c, r.iterations,
                                          counter.f - f0 + spent, None, True, len(points)))

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .corrector import Bordered, NewtonResult, Tolerances, correct
+from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import EngineFailure, Stats, _Counting, parameter_index
 
 __all__ = ["FoldPoint", "fold_test", "locate_fold"]
@@ -75,7 +75,7 @@ class FoldPoint:
     negative_eigenvalues: object = None
     crossing: object = None
     iterations: int = 0
-    stats: Stats = Stats()
+    stats: Stats = field(default_factory=Stats)
 
     @property
     def value(self) -> float:
@@ -177,8 +177,8 @@ class _FoldSystem:
         du, dq = M.solve(f, np.array(g, dtype=float))
         dp = np.zeros_like(p)
         dp[self.idx] = dq
-        self.last = dict(v=v, sigma=sigma, a=a, R_p=R_p, g_u=g_u, g_p=g_p, bordered=M,
-                         inertia=fact.inertia())
+        self.last = {"v": v, "sigma": sigma, "a": a, "R_p": R_p, "g_u": g_u, "g_p": g_p,
+                     "bordered": M, "inertia": fact.inertia()}
         self.v0 = v
         return c.residual_norm(r), du, dp, fact, self.last
 
@@ -213,7 +213,7 @@ def _fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stat
                      res.iterations, stats)
 
 
-def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = Tolerances(),
+def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLERANCES,
                 check_inertia: bool = False, inertia_step: float = 1e-4):
     """Locate a fold in parameter ``param`` near ``(u, p)``.
 

@@ -31,8 +31,15 @@ import scipy.sparse.linalg as spla
 
 from ..params import ParameterError
 
-__all__ = ["Problem", "FunctionProblem", "DenseFactorization", "SparseLUFactorization",
-           "Stats", "EngineFailure", "parameter_index"]
+__all__ = [
+    "DenseFactorization",
+    "EngineFailure",
+    "FunctionProblem",
+    "Problem",
+    "SparseLUFactorization",
+    "Stats",
+    "parameter_index",
+]
 
 
 class EngineFailure(RuntimeError):
@@ -64,10 +71,10 @@ class Stats:
     residuals: int = 0
     newton_iterations: int = 0
 
-    def __add__(self, other: "Stats") -> "Stats":
+    def __add__(self, other: Stats) -> Stats:
         return Stats(*(getattr(self, f) + getattr(other, f) for f in self.__dataclass_fields__))
 
-    def __sub__(self, other: "Stats") -> "Stats":
+    def __sub__(self, other: Stats) -> Stats:
         return Stats(*(getattr(self, f) - getattr(other, f) for f in self.__dataclass_fields__))
 
 
@@ -257,7 +264,7 @@ class _Counting:
             fact = self.problem.factorize(J)
         except EngineFailure:
             raise
-        except Exception as err:  # a back-end's own error type (singular matrix)
+        except Exception as err:  # noqa: BLE001 - a back-end's own error type (singular matrix)
             raise EngineFailure(f"factorisation failed: {err}") from None
         return _CountedFactorization(fact, self)
 
