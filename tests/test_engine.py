@@ -180,6 +180,8 @@ def test_fold_curve_of_the_cusp_normal_form():
     # one cusp, at the origin
     assert len(c.cusps) == 1
     assert np.abs(c.cusps[0].p).max() < 1e-6
+    # the curve's projection turns back there: mu = 3 u^2 has its minimum
+    assert c.cusps[0].tangent_reversal == (False, True)
     # the fold kind flips at the cusp: a changes sign once, so does the side
     a = np.array([pt.a for pt in c.points])
     assert np.count_nonzero(np.diff(np.sign(a))) == 1
@@ -216,6 +218,7 @@ def test_heavy_column_fold_curve_against_brute_force():
     assert len(c.cusps) == 1
     cusp = c.cusps[0]
     assert abs(cusp.p[1]) < 1e-6 and cusp.p[0] == pytest.approx(G_c, abs=1e-6)
+    assert cusp.tangent_reversal == (True, False)  # G*(alpha) has its minimum there
     assert np.abs(cusp.u).max() < 1e-3
     # symmetric in alpha (theta -> -theta): G*(alpha) = G*(-alpha)
     assert alpha[-1] == pytest.approx(-alpha0) and G[-1] == pytest.approx(G[0], abs=1e-8)

@@ -115,6 +115,7 @@ def test_fold_curve_of_the_rectangle_at_hmax_0_1():
     assert c.standout_length == pytest.approx(1.347, abs=0.005)
     assert c.popup_length == pytest.approx(1.205, abs=0.005)
     assert c.cusp is not None and 0.6 <= c.cusp["tip_width"] <= 0.7
+    assert c.curve.cusps[0].tangent_reversal[1]  # b turns back at the cusp
     assert c.factorizations_per_point <= 5
     kinds = [p["kind"] for p in c.points]
     n_standout = kinds.count("standout")
@@ -128,3 +129,37 @@ def test_fold_curve_of_the_rectangle_at_hmax_0_1():
     assert set(s) == {"curvature", "points", "cusp", "factorizations",
                       "factorizations_per_point", "wall_time_s"}
     assert set(s["points"][0]) == {"tip_width", "length", "kind"}
+
+
+def test_memory_does_not_grow_with_the_number_of_points(coarse, coarse_fold):
+    """States are not kept and the mapped problems are cached in bounded
+    number: 12 points retain and peak at about what 3 points do."""
+    import gc
+    import tracemalloc
+
+    def run(n):
+        return fold_curve(coarse, coarse_fold.fold, ("L", "b"), ((0.6, 2.4), (0.2, 1.0)),
+                          ds=0.05, ds_max=0.2, direction=-1, tol=TOL, max_points=n)
+
+    run(3)  # fill the caches
+    tracemalloc.start()
+    try:
+        gc.collect()
+        m0 = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        short = run(3)
+        gc.collect()
+        m3, peak3 = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        long = run(12)
+        gc.collect()
+        m12, peak12 = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(short.points) == 3 and len(long.points) == 12
+    state_bytes = 8 * coarse._sheet.base.ndof
+    # retained: less than half a state per extra point (no states kept; the
+    # cache of mapped problems, full after the first run, only turns over)
+    assert m12 - m3 < 0.5 * state_bytes * 9
+    # peak: the same working set
+    assert peak12 - m3 < 1.5 * (peak3 - m0) + state_bytes

@@ -199,8 +199,10 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
                                   check_inertia=check_inertia)
             # a fold ahead, within the failed step (Newton at fixed parameter
             # also fails just before a fold, so allow twice the step)
+            # and a turning point of this branch: solutions exist behind it
             ahead = (fold.value - p[i]) * direction if fold is not None else -1.0
-            if fold is not None and -1e-12 <= ahead <= 2 * abs(lam_try - p[i]) + 1e-12:
+            if (fold is not None and -1e-12 <= ahead <= 2 * abs(lam_try - p[i]) + 1e-12
+                    and fold.side != direction):
                 return finish(points, [fold], reason=f"fold at {fold.value:.10g} ({why})",
                               bracket=(float(p[i]), float(lam_try)))
         if abs(lam_try - p[i]) <= min_step * (1 + 1e-9):

@@ -91,13 +91,30 @@ class FoldCurvePoint:
 
 @dataclass(frozen=True)
 class Cusp:
-    """A located cusp: parameters, state, the residual ``a`` there, cost."""
+    """A located cusp.
+
+    Attributes
+    ----------
+    p : ndarray
+        Parameters.
+    u : ndarray
+        State.
+    a : float
+        The quadratic fold coefficient there (``~ 0``).
+    iterations, factorizations : int
+        Regula-falsi steps and their factorisations.
+    tangent_reversal : tuple of bool
+        For ``(p_i, p_j)``: whether that component of the curve's unit tangent
+        changed sign between the two points around the cusp (the projection
+        on the parameter plane turns back: at least one does).
+    """
 
     p: np.ndarray
     u: object = field(default=None, repr=False)
     a: float = 0.0
     iterations: int = 0
     factorizations: int = 0
+    tangent_reversal: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -279,7 +296,8 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
             cusp = _locate_cusp(counter, v, idx, t, u, p, h, a_prev, ex["a"], tol, full,
                                 cusp_tol, max_cusp_iterations)
             if cusp is not None:
-                cusps.append(cusp)
+                rev = tuple(bool(x) for x in np.sign(t[1]) != np.sign(t_new[1]))
+                cusps.append(Cusp(**{**cusp.__dict__, "tangent_reversal": rev}))
             f0 += counter.f - f_cusp  # the cusp's factorisations are its own
         if not inside(res.p):
             clip = _clip(counter, u, p, res.u, res.p, ex["v"], i, j, (lo_i, hi_i), (lo_j, hi_j),
