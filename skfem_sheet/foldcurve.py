@@ -157,13 +157,6 @@ class _Sheet:
         out = follow_path(problem, path, curvature, solver, stats=stats)
         return out.converged, out.w, stats.factorizations, out.reason
 
-    @staticmethod
-    def fold_lengths(tip_width, curvature, **kw):
-        """Today's point-by-point fold search (for comparison)."""
-        from .bistability import fold_lengths
-
-        return fold_lengths(tip_width, curvature, **kw)
-
 
 # ----------------------------------------------------------------------------
 # the sheet as an engine problem in (L, b)
@@ -210,6 +203,15 @@ class SheetFoldProblem(Problem):
     layers : int, optional
     solver : str
         Linear-solver back-end (see :func:`skfem_sheet.linalg.make_linear_solver`).
+
+    Examples
+    --------
+    >>> P = SheetFoldProblem(2.5, hmax=0.25)
+    >>> P.distortion([1.56, 0.5]), P.admissible_parameters([1.56, 0.1])
+    ((1.2, 0.5), False)
+    >>> u = np.zeros(len(P._sheet.free))
+    >>> bool(np.all(np.isfinite(P.residual(u, [1.3, 0.8]))))
+    True
     """
 
     parameter_names = ("L", "b")

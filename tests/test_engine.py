@@ -192,6 +192,9 @@ def test_fold_curve_of_the_cusp_normal_form():
     for pt in c.points[:-1]:
         n_minus, n_plus = pt.crossing
         assert abs(n_plus - n_minus) == 1
+    # one factorisation per Newton step of the extended system (+ the first
+    # linearisation at the start, + 2 per inertia check, every point here)
+    assert c.stats.factorizations == c.stats.newton_iterations + 1 + 2 * len(c.points)
     # a few factorisations per point (+ 2 for the inertia check), not a bisection
     assert np.median([pt.iterations for pt in c.points]) <= 5
     assert np.all(c.factorizations_per_point[1:] >= np.array([pt.iterations + 2

@@ -92,6 +92,7 @@ def test_standout_fold_at_a_coarse_mesh(coarse, coarse_fold):
 
 
 def test_first_points_of_the_fold_curve_at_a_coarse_mesh(coarse, coarse_fold):
+    refactorized = coarse.refactorizations
     c = fold_curve(coarse, coarse_fold.fold, ("L", "b"), ((0.6, 2.4), (0.2, 1.0)), ds=0.05,
                    ds_max=0.2, direction=-1, tol=TOL, max_points=4, check_inertia=True,
                    easy_iterations=3)
@@ -103,6 +104,10 @@ def test_first_points_of_the_fold_curve_at_a_coarse_mesh(coarse, coarse_fold):
         assert abs(pt.crossing[1] - pt.crossing[0]) == 1
     # each point is a fold: residual and sigma vanish (the corrector's rule) in few steps
     assert np.median([pt.iterations for pt in c.points[1:]]) <= 5
+    # one factorisation per Newton step (+ the start, + 2 per inertia check), and
+    # no solve needed a factorisation again
+    assert c.stats.factorizations == c.stats.newton_iterations + 1 + 2 * len(c.points)
+    assert coarse.refactorizations == refactorized
 
 
 @pytest.mark.slow

@@ -142,6 +142,19 @@ class Problem:
     ``parameter_names`` and override any default (an exact
     :meth:`dresidual`, a weighted :meth:`dual`, a sparse symmetric-indefinite
     :meth:`factorize` with a known inertia).
+
+    Examples
+    --------
+    >>> class Bar(Problem):  # a spring softening under the load p[0]
+    ...     parameter_names = ("load",)
+    ...     def residual(self, u, p):
+    ...         return np.sin(u) - p[0]
+    ...     def jacobian(self, u, p):
+    ...         return np.diag(np.cos(u))
+    >>> from skfem_sheet.engine import locate_fold
+    >>> fold, _ = locate_fold(Bar(), np.array([1.0]), np.array([0.8]), "load")
+    >>> round(fold.value, 12), round(float(fold.u[0]), 8)
+    (1.0, 1.57079633)
     """
 
     #: Names of the entries of the parameter vector (optional).
