@@ -38,7 +38,8 @@ import numpy as np
 from .engine import Problem, Tolerances, fold_curve, natural
 from .params import ParameterError, Sheet, check_range
 
-__all__ = ["MIN_SQUEEZE", "TOLERANCES", "FoldCurve", "SheetFoldProblem", "trace_fold_curve"]
+__all__ = ["MIN_SQUEEZE", "TOLERANCES", "FoldCurve", "SheetFoldProblem", "trace_curvature_fold_curve",
+           "trace_fold_curve"]
 
 #: Smallest ratio of the tip width to the mesh's tip width (y squeeze at the tip).
 MIN_SQUEEZE = 0.15
@@ -184,10 +185,10 @@ class _Factorization:
 
 
 class SheetFoldProblem(Problem):
-    """The half sheet at full load as an engine problem in ``p = (L, b)``.
+    """The half sheet at full load as an engine problem in ``p = (L, b, a/R)``.
 
     The state ``u`` holds the free dofs; the clamp values are those of the
-    fixed ``curvature``.  Norms as in :mod:`skfem_sheet.newton`: the residual
+    curvature ``p[2]`` (a parameter vector ``(L, b)`` means ``curvature``).  Norms as in :mod:`skfem_sheet.newton`: the residual
     relative to the weight, corrections of the displacements; the arclength
     inner product weighs the mean square of the displacements plus the
     square of the tip's vertical displacement (pressures left out).
@@ -195,7 +196,7 @@ class SheetFoldProblem(Problem):
     Parameters
     ----------
     curvature : float
-        a/R (fixed).
+        a/R of the mesh's sheet, and of parameter vectors ``(L, b)``.
     hmax : float
     mesh_length, mesh_tip_width : float
         ``(L_m, b_m)`` of the mesh.
@@ -210,11 +211,11 @@ class SheetFoldProblem(Problem):
     >>> P.distortion([1.56, 0.5]), P.admissible_parameters([1.56, 0.1])
     ((1.2, 0.5), False)
     >>> u = np.zeros(len(P._sheet.free))
-    >>> bool(np.all(np.isfinite(P.residual(u, [1.3, 0.8]))))
+    >>> bool(np.all(np.isfinite(P.residual(u, [1.3, 0.8, 2.0]))))
     True
     """
 
-    parameter_names = ("L", "b")
+    parameter_names = ("L", "b", "a/R")
 
     def __init__(self, curvature, hmax=0.1, mesh_length=1.3, mesh_tip_width=1.0,
                  thickness=0.03, modulus=735.0, layers=None, solver="auto"):
@@ -223,7 +224,7 @@ class SheetFoldProblem(Problem):
                       thickness=thickness, modulus=modulus)
         self._sheet = _Sheet(sheet, hmax, layers, solver)
         s = self._sheet
-        self._w_fixed = s.fixed_values(self.curvature)
+        self._fixed = (self.curvature, s.fixed_values(self.curvature))
         self._u_free = s.free < s.nu_dof
         self._theta = 1.0 / max(1, int(np.count_nonzero(self._u_free)))
         self._tip = (None if s.tip_dof is None
@@ -248,8 +249,15 @@ class SheetFoldProblem(Problem):
                 self._problems.popitem(last=False)
         return prob
 
-    def full(self, u):
-        w = self._w_fixed.copy()
+    def _kappa(self, p):
+        return float(p[2]) if len(p) > 2 else self.curvature
+
+    def full(self, u, p=()):
+        """The full state: ``u`` on the free dofs, the clamp values of ``p``."""
+        kappa = self._kappa(p)
+        if kappa != self._fixed[0]:
+            self._fixed = (kappa, self._sheet.fixed_values(kappa))
+        w = self._fixed[1].copy()
         w[self._sheet.free] = u
         return w
 
@@ -260,21 +268,23 @@ class SheetFoldProblem(Problem):
 
     # -- protocol ------------------------------------------------------------
     def admissible_parameters(self, p) -> bool:
-        """Within the mesh's distortion limits: stretch in [1/2, 2], tip
-        width in (0, 1.5 b_m] and not squeezed below ``MIN_SQUEEZE``."""
+        """Within the mesh's distortion limits (stretch in [1/2, 2], tip
+        width in (0, 1.5 b_m] and not squeezed below ``MIN_SQUEEZE``) and a
+        curvature in (0, 2 pi)."""
         s, q = self.distortion(p)
-        return bool(0.5 <= s <= 2.0 and MIN_SQUEEZE <= q <= 1.5 and p[1] > 0)
+        return bool(0.5 <= s <= 2.0 and MIN_SQUEEZE <= q <= 1.5 and p[1] > 0
+                    and 0 < self._kappa(p) < 2 * np.pi)
 
     def residual(self, u, p):
         if not self.admissible_parameters(p):
             return np.full(len(u), np.nan)  # inadmissible: the corrector halves the step
-        r, jmin = self._sheet.residual(self.problem(p), self.full(u))
+        r, jmin = self._sheet.residual(self.problem(p), self.full(u, p))
         if not jmin > 0:
             return np.full(len(u), np.nan)
         return r[self._sheet.free]
 
     def jacobian(self, u, p):
-        return self._sheet.tangent(self.problem(p), self.full(u))
+        return self._sheet.tangent(self.problem(p), self.full(u, p))
 
     def factorize(self, J):
         slot = self._next
@@ -306,9 +316,9 @@ class SheetFoldProblem(Problem):
     # -- starting states -----------------------------------------------------
     def solve_state(self, p, path="curvature-first"):
         """State at ``p`` along a load path; raises ParameterError if it fails."""
-        ok, w, nfact, why = self._sheet.solve_along_path(self.problem(p), self.curvature, path)
+        ok, w, nfact, why = self._sheet.solve_along_path(self.problem(p), self._kappa(p), path)
         if not ok:
-            raise ParameterError(f"the sheet at (L, b) = {tuple(p)} could not be solved along "
+            raise ParameterError(f"the sheet at (L, b, a/R) = {tuple(p)} could not be solved along "
                                  f"{path}: {why}")
         return w[self._sheet.free], nfact
 
@@ -357,31 +367,42 @@ class FoldCurve:
     negative_eigenvalues: tuple = ()
     crossing: tuple = ()
     curve: object = field(default=None, repr=False, compare=False)
+    #: The second parameter of the curve ("tip_width", or "curvature" for
+    #: :func:`trace_curvature_fold_curve`, whose points carry "curvature").
+    second: str = "tip_width"
+    #: The fixed tip width of a curve in (L, a/R).
+    tip_width: float = 1.0
 
-    def _at_full_width(self, kind):
+    def _at_start_value(self, kind):
+        end = 1.0 if self.second == "tip_width" else self.curvature
         for pt in self.points:
-            if pt["kind"] == kind and abs(pt["tip_width"] - 1.0) < 1e-9:
+            if pt["kind"] == kind and abs(pt[self.second] - end) < 1e-9:
                 return pt["length"]
         return None
 
     @property
     def standout_length(self):
-        """``L1*`` at ``b = 1`` (None if not on the curve)."""
-        return self._at_full_width("standout")
+        """``L1*`` where the curve starts (``b = 1``, or the start curvature;
+        None if not on the curve)."""
+        return self._at_start_value("standout")
 
     @property
     def popup_length(self):
-        """``L0*`` at ``b = 1`` (None if the curve did not come back)."""
-        return self._at_full_width("popup")
+        """``L0*`` where the curve ends (None if the curve did not come back)."""
+        return self._at_start_value("popup")
 
     def summary(self) -> dict:
         """JSON-ready: curvature, points, cusp, factorizations,
-        factorizations_per_point, wall_time_s."""
-        return {"curvature": self.curvature, "points": [dict(p) for p in self.points],
-                "cusp": None if self.cusp is None else dict(self.cusp),
-                "factorizations": self.factorizations,
-                "factorizations_per_point": self.factorizations_per_point,
-                "wall_time_s": self.wall_time_s}
+        factorizations_per_point, wall_time_s (and for a curve in (L, a/R):
+        parameter = "curvature" and its tip_width)."""
+        out = {"curvature": self.curvature, "points": [dict(p) for p in self.points],
+               "cusp": None if self.cusp is None else dict(self.cusp),
+               "factorizations": self.factorizations,
+               "factorizations_per_point": self.factorizations_per_point,
+               "wall_time_s": self.wall_time_s}
+        if self.second != "tip_width":
+            out.update(parameter=self.second, tip_width=self.tip_width)
+        return out
 
 
 def _kind(side):
@@ -389,7 +410,8 @@ def _kind(side):
 
 
 class _Progress:
-    def __init__(self, enabled):
+    def __init__(self, enabled, j=1, name="b"):
+        self.j, self.name = j, name
         self.bar = None
         if enabled:
             import sys
@@ -401,8 +423,8 @@ class _Progress:
     def __call__(self, pt):
         if self.bar is not None:
             self.bar.update(1)
-            self.bar.set_postfix_str(f"b={pt.p[1]:.4f} L={pt.p[0]:.4f} {_kind(pt.side)}",
-                                     refresh=True)
+            self.bar.set_postfix_str(f"{self.name}={pt.p[self.j]:.4f} L={pt.p[0]:.4f} "
+                                     f"{_kind(pt.side)}", refresh=True)
 
     def close(self):
         if self.bar is not None:
@@ -461,37 +483,86 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float
     >>> c.standout_length, c.popup_length, c.cusp  # doctest: +SKIP
     """
     curvature = check_range("curvature", curvature, 0, 2 * np.pi, lo_open=True, hi_open=True)
+    min_tip_width = check_range("min_tip_width", min_tip_width, 0, 1, lo_open=True, hi_open=True)
+    return _trace(curvature, 1.0, 1, (min_tip_width, 1.0), hmax=hmax, start_length=start_length,
+                  length_range=length_range, thickness=thickness, modulus=modulus,
+                  layers=layers, solver=solver, ds=ds, ds_max=ds_max,
+                  check_inertia=check_inertia, mesh_length=mesh_length,
+                  max_points=max_points, progress=progress)
+
+
+def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
+                               hmax: float = 0.1, *, min_curvature: float = 0.3,
+                               start_length: float = 1.2, length_range=(0.6, 2.4),
+                               thickness: float = 0.03, modulus: float = 735.0, layers=None,
+                               solver: str = "auto", ds: float = 0.05, ds_max: float = 0.4,
+                               check_inertia=10, mesh_length=None, max_points: int = 400,
+                               progress: bool = False) -> FoldCurve:
+    """Trace the fold curve in (L, a/R) at tip width ``tip_width``.
+
+    The same as :func:`trace_fold_curve` with the clamp curvature as the
+    second parameter: from the standout fold at ``curvature`` the fold is
+    continued to lower curvatures, through the cusp where bistability starts,
+    and back to ``curvature`` as the pop-up fold.  The points carry
+    ``curvature`` instead of ``tip_width``; the cusp is ``{"curvature",
+    "length"}``.  Parameters as for :func:`trace_fold_curve`;
+    ``min_curvature`` bounds the curve below.
+
+    Examples
+    --------
+    >>> c = trace_curvature_fold_curve(1.0, 2.5, hmax=0.1)  # doctest: +SKIP
+    >>> c.cusp["curvature"]  # doctest: +SKIP
+    """
+    tip_width = check_range("tip_width", tip_width, 0, 1, lo_open=True)
+    curvature = check_range("curvature", curvature, 0, 2 * np.pi, lo_open=True, hi_open=True)
+    min_curvature = check_range("min_curvature", min_curvature, 0, curvature, lo_open=True,
+                                hi_open=True)
+    return _trace(curvature, tip_width, 2, (min_curvature, curvature), hmax=hmax,
+                  start_length=start_length, length_range=length_range, thickness=thickness,
+                  modulus=modulus, layers=layers, solver=solver, ds=ds, ds_max=ds_max,
+                  check_inertia=check_inertia, mesh_length=mesh_length,
+                  max_points=max_points, progress=progress)
+
+
+_SECOND = {1: ("b", "tip_width"), 2: ("a/R", "curvature")}
+
+
+def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_range, thickness,
+           modulus, layers, solver, ds, ds_max, check_inertia, mesh_length, max_points,
+           progress):
+    """Standout fold at ``(tip_width, curvature)``, then its fold curve in
+    ``(L, p_j)`` from the start value of ``p_j`` downward and back."""
     hmax = check_range("hmax", hmax, 0.02, 0.5)
     lo, hi = (check_range("length_range", float(x), 0.05, 20.0) for x in length_range)
     if not lo < start_length < hi:
         raise ParameterError(f"start_length must be inside length_range {length_range!r}, "
                              f"got {start_length!r}")
-    min_tip_width = check_range("min_tip_width", min_tip_width, 0, 1, lo_open=True, hi_open=True)
     t0 = time.perf_counter()
-    P = SheetFoldProblem(curvature, hmax, mesh_length or 1.08 * start_length, 1.0, thickness,
-                         modulus, layers, solver)
+    P = SheetFoldProblem(curvature, hmax, mesh_length or 1.08 * start_length, tip_width,
+                         thickness, modulus, layers, solver)
     tol = TOLERANCES
-    p0 = np.array([start_length, 1.0])
+    p0 = np.array([start_length, tip_width, curvature])
     u0, f_start = P.solve_state(p0, "curvature-first")
     branch = natural(P, u0, p0, "L", hi, step=0.05, min_step=1e-3, tol=tol, jump=0.1,
                      keep_states=False)
     if branch.fold is None:
         raise ParameterError(f"no standout fold found in L from {start_length} to {hi} at "
-                             f"a/R = {curvature}: {branch.reason}")
-    bar = _Progress(progress)
+                             f"b/a = {tip_width}, a/R = {curvature}: {branch.reason}")
+    name, key = _SECOND[j]
+    bar = _Progress(progress, j, name)
     try:
-        curve = fold_curve(P, branch.fold, ("L", "b"), ((lo, hi), (min_tip_width, 1.0)),
+        curve = fold_curve(P, branch.fold, ("L", name), ((lo, hi), bounds_j),
                            ds=ds, ds_min=1e-4, ds_max=ds_max, direction=-1, tol=tol,
                            cusp_tol=1e-4, check_inertia=check_inertia, easy_iterations=3,
                            max_points=max_points, progress=bar)
     finally:
         bar.close()
-    points = tuple({"tip_width": float(pt.p[1]), "length": float(pt.p[0]),
-                    "kind": _kind(pt.side)} for pt in curve.points)
+    points = tuple({key: float(pt.p[j]), "length": float(pt.p[0]), "kind": _kind(pt.side)}
+                   for pt in curve.points)
     cusp = None
     if curve.cusps:
         c = curve.cusps[0]
-        cusp = {"tip_width": float(c.p[1]), "length": float(c.p[0])}
+        cusp = {key: float(c.p[j]), "length": float(c.p[0])}
     total = (f_start + branch.stats.factorizations + curve.stats.factorizations
              + P.refactorizations)
     per_point = curve.factorizations_per_point
@@ -499,4 +570,4 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float
                      float(np.median(per_point[1:])) if len(per_point) > 1 else float("nan"),
                      time.perf_counter() - t0, hmax, curve.completed, curve.reason,
                      tuple(pt.negative_eigenvalues for pt in curve.points),
-                     tuple(pt.crossing for pt in curve.points), curve)
+                     tuple(pt.crossing for pt in curve.points), curve, key, tip_width)

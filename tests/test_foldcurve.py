@@ -1,4 +1,5 @@
 """Fold curves of the 3D sheet in (L, b): the mapped mesh, the fold, the curve."""
+import dataclasses
 import json
 
 import numpy as np
@@ -108,6 +109,20 @@ def test_first_points_of_the_fold_curve_at_a_coarse_mesh(coarse, coarse_fold):
     # no solve needed a factorisation again
     assert c.stats.factorizations == c.stats.newton_iterations + 1 + 2 * len(c.points)
     assert coarse.refactorizations == refactorized
+
+
+def test_first_points_of_the_curvature_fold_curve_at_a_coarse_mesh(coarse, coarse_fold):
+    """The same fold continued in (L, a/R): the curvature as a third parameter
+    (clamp values); lowering it shortens the standout length."""
+    start = dataclasses.replace(coarse_fold.fold, p=np.append(coarse_fold.fold.p, 2.5))
+    c = fold_curve(coarse, start, ("L", "a/R"), ((0.6, 2.4), (0.3, 2.5)), ds=0.05, ds_max=0.2,
+                   direction=-1, tol=TOL, max_points=4, check_inertia=True)
+    assert len(c.points) == 4, c.reason
+    L, kappa, b = c.params[:, 0], c.params[:, 2], c.params[:, 1]
+    assert kappa[0] == 2.5 and np.all(np.diff(kappa) < 0) and np.all(b == 1.0)
+    assert np.all(np.diff(L) < 0)
+    for pt in c.points:
+        assert pt.side == -1 and abs(pt.crossing[1] - pt.crossing[0]) == 1
 
 
 @pytest.mark.slow
