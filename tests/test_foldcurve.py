@@ -183,3 +183,25 @@ def test_memory_does_not_grow_with_the_number_of_points(coarse, coarse_fold):
     assert m12 - m3 < 0.5 * state_bytes * 9
     # peak: the same working set
     assert peak12 - m3 < 1.5 * (peak3 - m0) + state_bytes
+
+
+@pytest.mark.slow
+def test_two_routes_around_the_cusp_reach_the_same_popup_fold():
+    """From the standout fold at (b, a/R) = (1, 2.5), the fold curve in (L, a/R)
+    goes round the cusp in the curvature and comes back to a/R = 2.5 as the
+    pop-up fold, the one the curve in (L, b) reaches round the cusp in b."""
+    from skfem_sheet.foldcurve import trace_curvature_fold_curve
+
+    by_curvature = trace_curvature_fold_curve(1.0, 2.5, hmax=0.1, check_inertia=0)
+    by_width = trace_fold_curve(2.5, hmax=0.1, check_inertia=0)
+    assert by_curvature.completed and by_width.completed
+    assert by_curvature.popup_length == pytest.approx(by_width.popup_length, abs=1e-5)
+    assert by_curvature.standout_length == pytest.approx(by_width.standout_length, abs=1e-9)
+    cusp = by_curvature.cusp
+    assert cusp is not None and 0 < cusp["curvature"] < 2.5
+    assert cusp["curvature"] == pytest.approx(min(p["curvature"] for p in by_curvature.points),
+                                              abs=0.01)
+    kinds = [p["kind"] for p in by_curvature.points]
+    n = kinds.count("standout")
+    assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    assert by_curvature.factorizations_per_point <= 5
