@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .corrector import DEFAULT_TOLERANCES, Bordered, Tolerances, correct
-from .fold import locate_fold
+from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
+from .fold import _fold_point, _FoldSystem, locate_fold
 from .protocol import EngineFailure, Stats, _Counting, parameter_index
 
 __all__ = ["Branch", "BranchPoint", "arclength", "natural"]
@@ -227,6 +227,85 @@ def _unit_tangent(counter, t_u, t_p, prev=None):
     return t_u, float(t_p)
 
 
+def _arclength_point(counter, i, t, u_ref, p_ref, h, tol):
+    """The equilibrium at arclength ``h`` along the unit tangent ``t`` from
+    ``(u_ref, p_ref)`` (``res.extra`` is its bordered matrix)."""
+    t_u, t_p = t
+
+    def linearize(uu, pp):
+        r = counter.residual(uu, pp)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = counter.jacobian(uu, pp)
+        f = counter.factorize(J)
+        N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
+        M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
+                     counter.dual(t_u)[:, None], [[t_p]])
+        du, dq = M.solve(-r, [-N])
+        dp = np.zeros_like(pp)
+        dp[i] = dq[0]
+        return counter.residual_norm(r), du, dp, f, M
+
+    p_pred = p_ref.copy()
+    p_pred[i] += h * t_p
+    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
+
+
+def _tangent_at(counter, res, prev):
+    """Unit tangent at a corrected point from its bordered matrix:
+    ``[[K, R_p], [t_prev^T]] t = [0; 1]``."""
+    tu_new, tp_new = res.extra.solve(np.zeros(len(res.u)), [1.0])
+    return _unit_tangent(counter, tu_new, float(tp_new[0]), prev=prev)
+
+
+def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9,
+                   max_iterations=40):
+    """The fold between ``(u, p)`` and the point at arclength ``h``: regula
+    falsi (Illinois) on the tangent's parameter component ``t_p(s)``, each
+    evaluation an arclength correction; then the fold system from there."""
+    s0, f0, s1, f1 = 0.0, t[1], h, t_end[1]
+    best, side = None, 0
+    for _ in range(max_iterations):
+        s = s1 - f1 * (s1 - s0) / (f1 - f0)
+        res = _arclength_point(counter, i, t, u, p, s, tol)
+        if not res.converged:
+            return None
+        try:
+            ts = _tangent_at(counter, res, t)
+        except EngineFailure:
+            return None
+        best = (res, ts)
+        if abs(s1 - s0) <= s_tol or ts[1] == 0:
+            break
+        if np.sign(ts[1]) == np.sign(f1):
+            s1, f1 = s, ts[1]
+            if side == 1:
+                f0 *= 0.5
+            side = 1
+        else:
+            s0, f0 = s, ts[1]
+            if side == -1:
+                f1 *= 0.5
+            side = -1
+        if abs(s1 - s0) <= s_tol:
+            break
+    if best is None:
+        return None
+    res, ts = best
+    fold, _ = locate_fold(counter, res.u, res.p, i, v0=ts[0], tol=tol,
+                          check_inertia=check_inertia)
+    if fold is not None:
+        return fold
+    # the fold system still does not converge: the point where t_p = 0 is the fold
+    system = _FoldSystem(counter, ts[0], [i])
+    try:
+        system(res.u, res.p)
+    except EngineFailure:
+        return None
+    out = NewtonResult(res.u, res.p, True, 0, "", (), None, Stats(), system.last)
+    return _fold_point(counter, out, i, check_inertia, 1e-4, Stats())
+
+
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
@@ -297,36 +376,15 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     folds = []
     h = ds
     while len(points) < max_points:
-        t_u, t_p = t
-        u_ref, p_ref = u, p
-
-        def linearize(uu, pp, t_u=t_u, t_p=t_p, u_ref=u_ref, p_ref=p_ref, h=h):
-            r = counter.residual(uu, pp)
-            if not np.all(np.isfinite(r)):
-                raise EngineFailure("non-finite residual")
-            J = counter.jacobian(uu, pp)
-            f = counter.factorize(J)
-            N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
-            M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
-                         counter.dual(t_u)[:, None], [[t_p]])
-            du, dq = M.solve(-r, [-N])
-            dp = np.zeros_like(pp)
-            dp[i] = dq[0]
-            return counter.residual_norm(r), du, dp, f, M
-
-        p_pred = p.copy()
-        p_pred[i] += h * t_p
-        res = correct(counter, u + h * t_u, p_pred, linearize, tol)
+        res = _arclength_point(counter, i, t, u, p, h, tol)
         if not res.converged:
             h *= 0.5
             if h < ds_min:
                 return finish(points, folds, reason=f"arclength step below ds_min at "
                               f"p = {p[i]:.6g} (Newton: {res.reason})")
             continue
-        M = res.extra
-        try:  # tangent at the new point from its bordered matrix: [[K, R_p], [t^T]] t' = [0; 1]
-            tu_new, tp_new = M.solve(np.zeros(len(u)), [1.0])
-            t_new = _unit_tangent(counter, tu_new, float(tp_new[0]), prev=t)
+        try:
+            t_new = _tangent_at(counter, res, t)
         except EngineFailure as err:
             return finish(points, folds, reason=f"tangent: {err}")
         k_new = res.factorization.inertia()
@@ -341,6 +399,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
                                       else (res.u, res.p, t_new))
             fold, _ = locate_fold(counter, near_u, near_p, i, v0=near_t[0], tol=tol,
                                   check_inertia=check_inertia)
+            if fold is None:  # outside Newton's basin for the fold system: t_p = 0 first
+                fold = _turning_point(counter, i, t, u, p, h, t_new, tol, check_inertia)
             if fold is not None:
                 folds.append(fold)
         points.append(new_point)
