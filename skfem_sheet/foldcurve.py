@@ -15,7 +15,7 @@ fold's length) or ``"popup"`` (the gravity-dominated one exists above).
 
 Both parameters are continuous on one mesh (built at ``(L_m, b_m)``): the
 length by stretching in x, ``x' = x L / L_m`` (as
-:meth:`~skfem_sheet.model.SheetProblem.with_length`), the tip width by
+:meth:`~skfem_sheet.problem.SheetProblem.with_length`), the tip width by
 mapping in y, ``y' = y p_new(xi) / p_old(xi)`` with ``xi = x / L`` and the
 width profile ``p(xi) = 1 + (b - 1) xi``; that map takes the trapezoid onto
 the trapezoid exactly (``b > 0``), keeps the clamp (``xi = 0``) and the
@@ -35,8 +35,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from skfem import MeshTet
+
+from .analyses.stability import stability
+from .continuation import follow_path
+from .discretisation import TaylorHoodSpace
 from .engine import Problem, Tolerances, fold_curve, natural
+from .linalg import make_linear_solver
+from .mesh import SheetMesh, sheet_mesh
+from .newton import Stats
 from .params import ParameterError, Sheet, check_range
+from .problem import SheetProblem
 
 __all__ = ["MIN_SQUEEZE", "TOLERANCES", "FoldCurve", "SheetFoldProblem", "trace_curvature_fold_curve",
            "trace_fold_curve"]
@@ -61,9 +70,6 @@ class _Sheet:
     solvers, load paths, stability), in one place."""
 
     def __init__(self, sheet, hmax, layers, solver):
-        from .mesh import sheet_mesh
-        from .model import SheetProblem
-
         self.base = SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=True))
         self.solver_name = solver
         b = self.base
@@ -92,36 +98,21 @@ class _Sheet:
         the same tetrahedra, whose basis gradients, weights, nodes and loads
         replace the base's.
         """
-        from skfem import Basis, ElementTetP2, MeshTet
-
-        from .mesh import SheetMesh
-
         b0 = self.base
         m0 = b0.sheet_mesh
         P = m0.mesh.p
         xi = P[0] / m0.length
         q = (1.0 + (tip_width - 1.0) * xi) / (1.0 + (m0.tip_width - 1.0) * xi)
-        mesh = MeshTet(np.vstack([xi * length, P[1] * q, P[2]]), m0.mesh.t)
-        b2 = Basis(mesh, ElementTetP2(), intorder=b0.quadrature_order)
-        new = object.__new__(type(b0))
-        new.__dict__.update(b0.__dict__)
+        mesh = SheetMesh(mesh=MeshTet(np.vstack([xi * length, P[1] * q, P[2]]), m0.mesh.t),
+                         length=length, tip_width=tip_width, thickness=m0.thickness,
+                         hmax=m0.hmax, layers=m0.layers, half=m0.half, refine=m0.refine)
+        # the same tetrahedra, so the same dof numbering and pattern: a fresh
+        # (uncached) space on the mapped mesh, sharing the base's assembler
+        space = TaylorHoodSpace.build(mesh, b0.quadrature_order)
         # the Sheet only carries metadata here (b may exceed 1 by a difference step)
-        new.sheet = b0.sheet.replace(length=length, tip_width=min(max(tip_width, 0.0), 1.0))
-        new.length = length
-        new.sheet_mesh = SheetMesh(mesh=mesh, length=length, tip_width=tip_width,
-                                   thickness=m0.thickness, hmax=m0.hmax, layers=m0.layers,
-                                   half=m0.half, refine=m0.refine)
-        new.dphi = np.ascontiguousarray(
-            np.stack([b2.basis[a][0].grad for a in range(10)], axis=0).transpose(2, 3, 0, 1))
-        new.dx = np.asarray(b2.dx)
-        new.nodes = b2.doflocs.T
-        new._lap = np.einsum("eq,eqaj,eqbj->eab", new.dx, new.dphi, new.dphi)
-        new._constants = {}
-        fg = np.zeros(b0.ndof)
-        np.add.at(fg, 3 * b0.element_nodes + 2, np.einsum("eq,eqa->ea", new.dx, b0.phi2))
-        new.gravity_load = fg
-        new.volume0 = float(new.dx.sum())
-        return new
+        sheet = b0.sheet.replace(length=length, tip_width=min(max(tip_width, 0.0), 1.0))
+        return SheetProblem(sheet, mesh, b0.quadrature_order, space=space,
+                            assembler=b0.assembler)
 
     @staticmethod
     def residual(problem, w):
@@ -133,8 +124,6 @@ class _Sheet:
         return problem.tangent(w)
 
     def new_solver(self):
-        from .linalg import make_linear_solver
-
         return make_linear_solver(self.solver_name)
 
     @staticmethod
@@ -144,15 +133,10 @@ class _Sheet:
     @staticmethod
     def negative_eigenvalues(problem, solver):
         """Negative eigenvalues of the constrained Hessian (None if unknown)."""
-        from .bistability import stability
-
         return stability(problem, solver)[1]
 
     def solve_along_path(self, problem, curvature, path="curvature-first"):
         """Full state at ``problem`` by the load path (branch selection)."""
-        from .continuation import follow_path
-        from .newton import Stats
-
         solver = self.new_solver()
         stats = Stats()
         out = follow_path(problem, path, curvature, solver, stats=stats)
