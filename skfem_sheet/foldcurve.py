@@ -34,7 +34,6 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from skfem import MeshTet
 
 from .analyses.stability import stability

@@ -8,8 +8,8 @@ import pytest
 from skfem_sheet.engine import arclength, fold_curve, natural, newton
 from skfem_sheet.foldcurve import TOLERANCES as TOL
 from skfem_sheet.foldcurve import SheetFoldProblem, trace_fold_curve
-from skfem_sheet.problem import SheetProblem
 from skfem_sheet.params import ParameterError
+from skfem_sheet.problem import SheetProblem
 
 COARSE = 0.2  # the coarsest mesh with a bistable rectangle at a/R = 2.5 (tests/test_bistability)
 

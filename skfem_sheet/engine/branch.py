@@ -25,8 +25,8 @@ import numpy as np
 
 from ..params import ParameterError, check_range
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
-from .fold import _fold_point, _FoldSystem, locate_fold
-from .protocol import EngineFailure, Stats, _Counting, parameter_index
+from .fold import FoldSystem, fold_point, locate_fold
+from .protocol import Counting, EngineFailure, Stats, parameter_index
 
 __all__ = ["Branch", "BranchPoint", "arclength", "natural"]
 
@@ -97,9 +97,9 @@ class Branch:
 
 
 def _start(counter, u0, p0, tol):
-    from .corrector import _plain_linearization
+    from .corrector import plain_linearization
 
-    res = correct(counter, u0, p0, _plain_linearization(counter), tol)
+    res = correct(counter, u0, p0, plain_linearization(counter), tol)
     return res
 
 
@@ -146,7 +146,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     >>> b.completed, bool(abs(b.fold.value - 2 / (3 * np.sqrt(3))) < 1e-10)
     (False, True)
     """
-    counter = problem if isinstance(problem, _Counting) else _Counting(problem)
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
     start_stats = counter.stats()
     p = np.array(p0, dtype=float)
     i = parameter_index(counter, param, len(p))
@@ -214,9 +214,9 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
 
 
 def _fixed(counter):
-    from .corrector import _plain_linearization
+    from .corrector import plain_linearization
 
-    return _plain_linearization(counter)
+    return plain_linearization(counter)
 
 
 def _unit_tangent(counter, t_u, t_p, prev=None):
@@ -297,13 +297,13 @@ def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9
     if fold is not None:
         return fold
     # the fold system still does not converge: the point where t_p = 0 is the fold
-    system = _FoldSystem(counter, ts[0], [i])
+    system = FoldSystem(counter, ts[0], [i])
     try:
         system(res.u, res.p)
     except EngineFailure:
         return None
     out = NewtonResult(res.u, res.p, True, 0, "", (), None, Stats(), system.last)
-    return _fold_point(counter, out, i, check_inertia, 1e-4, Stats())
+    return fold_point(counter, out, i, check_inertia, 1e-4, Stats())
 
 
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
@@ -345,7 +345,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     >>> b.completed, [round(float(f.value), 10) for f in b.folds]
     (True, [-0.3849001795, 0.3849001795])
     """
-    counter = problem if isinstance(problem, _Counting) else _Counting(problem)
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
     start_stats = counter.stats()
     p = np.array(p0, dtype=float)
     i = parameter_index(counter, param, len(p))

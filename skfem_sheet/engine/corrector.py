@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .protocol import EngineFailure, Stats, _Counting
+from .protocol import Counting, EngineFailure, Stats
 
 __all__ = ["Bordered", "NewtonResult", "Tolerances", "correct", "newton"]
 
@@ -145,7 +145,7 @@ class Bordered:
         return x, y
 
 
-def correct(counter: _Counting, u, p, linearize, tol: Tolerances, admissible=None):
+def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None):
     """Newton's method on a (possibly extended) system: the one loop.
 
     Parameters
@@ -239,12 +239,12 @@ def newton(problem, u0, p, *, tol: Tolerances = DEFAULT_TOLERANCES) -> NewtonRes
     >>> newton(P, np.array([1.0]), [-1.0], tol=Tolerances(max_iterations=5)).converged
     False
     """
-    counter = problem if isinstance(problem, _Counting) else _Counting(problem)
-    return correct(counter, u0, np.asarray(p, dtype=float), _plain_linearization(counter),
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    return correct(counter, u0, np.asarray(p, dtype=float), plain_linearization(counter),
                    tol)
 
 
-def _plain_linearization(counter):
+def plain_linearization(counter):
     def linearize(u, p):
         r = counter.residual(u, p)
         if not np.all(np.isfinite(r)):

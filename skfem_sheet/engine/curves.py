@@ -38,12 +38,12 @@ from ..params import ParameterError, check_range
 from .corrector import DEFAULT_TOLERANCES, Tolerances, correct
 from .fold import (
     FoldPoint,
-    _crossing,
-    _FoldSystem,
-    _negative_besides_critical,
+    FoldSystem,
+    inertia_crossing,
     locate_fold,
+    negative_besides_critical,
 )
-from .protocol import EngineFailure, Stats, _Counting, parameter_index
+from .protocol import Counting, EngineFailure, Stats, parameter_index
 
 __all__ = ["Cusp", "FoldCurve", "FoldCurvePoint", "fold_curve"]
 
@@ -206,7 +206,7 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     >>> c.completed, len(c.cusps), bool(np.abs(c.cusps[0].p).max() < 1e-6)
     (True, 1, True)
     """
-    counter = problem if isinstance(problem, _Counting) else _Counting(problem)
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
     start_stats = counter.stats()
     if not isinstance(start, FoldPoint):
         raise ParameterError(f"start must be a FoldPoint (from locate_fold), got "
@@ -251,16 +251,16 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         crossing = None
         f0 = counter.f
         if every and n_point % every == 0:
-            crossing = _crossing(counter, u, q, ex["v"], inertia_step)
+            crossing = inertia_crossing(counter, u, q, ex["v"], inertia_step)
         return FoldCurvePoint(q.copy(), u if keep_states else None, ex["a"], side,
-                              _negative_besides_critical(ex["inertia"], ex["sigma"]), crossing,
+                              negative_besides_critical(ex["inertia"], ex["sigma"]), crossing,
                               its, fcount + counter.f - f0, None if t_q is None else t_q.copy(),
                               clipped)
 
     # the first point: linearise at the start fold with the row t = e_j (t_j = 1)
     f0 = counter.f
     u = np.array(start.u, dtype=float)
-    system = _FoldSystem(counter, start.v, idx,
+    system = FoldSystem(counter, start.v, idx,
                          arclength=(np.zeros_like(u), full(np.array([0.0, 1.0])), u, p, 0.0))
     try:
         system(u, p)
@@ -332,7 +332,7 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
 def _corrected(counter, v, idx, t, u, p, s, tol, full):
     """The fold point at arclength ``s`` along ``t`` from ``(u, p)``."""
     t_u, t_q = t
-    system = _FoldSystem(counter, v, idx, arclength=(t_u, full(t_q), u, p, s))
+    system = FoldSystem(counter, v, idx, arclength=(t_u, full(t_q), u, p, s))
     q = p + s * full(t_q)
     res = correct(counter, u + s * t_u, q, system, tol)
     return res, (system.last if res.converged else None)

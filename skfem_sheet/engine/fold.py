@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
-from .protocol import EngineFailure, Stats, _Counting, parameter_index
+from .protocol import Counting, EngineFailure, Stats, parameter_index
 
 __all__ = ["FoldPoint", "fold_test", "locate_fold"]
 
@@ -122,7 +122,7 @@ def fold_test(factorization, matvec, v0):
     return float(s[0]), v
 
 
-class _FoldSystem:
+class FoldSystem:
     """Linearisation of ``R = 0, sigma = 0`` (+ an arclength row) in the
     free parameters ``idx``; the bordering vector is updated to the last null
     vector at every iterate."""
@@ -183,14 +183,14 @@ class _FoldSystem:
         return c.residual_norm(r), du, dp, fact, self.last
 
 
-def _negative_besides_critical(inertia, sigma):
+def negative_besides_critical(inertia, sigma):
     """Negative eigenvalues other than the critical one (``sign(lambda) = -sign(sigma)``)."""
     if inertia is None:
         return None
     return int(inertia) - (1 if sigma > 0 else 0)
 
 
-def _crossing(counter, u, p, v, step):
+def inertia_crossing(counter, u, p, v, step):
     """Negative eigenvalue counts of the tangent at ``u -+ e v``."""
     e = step * max(1.0, float(np.abs(u).max()))
     out = []
@@ -202,14 +202,14 @@ def _crossing(counter, u, p, v, step):
     return None if None in out else tuple(int(x) for x in out)
 
 
-def _fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stats):
+def fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stats):
     ex = res.extra
     v, sigma, a = ex["v"], ex["sigma"], ex["a"]
     vr = float(v @ ex["R_p"][:, 0])
     side = int(-np.sign(a * vr)) if a * vr != 0 else 0
-    crossing = _crossing(counter, res.u, res.p, v, inertia_step) if check_inertia else None
+    crossing = inertia_crossing(counter, res.u, res.p, v, inertia_step) if check_inertia else None
     return FoldPoint(res.u, res.p, v, sigma, a, side, i,
-                     _negative_besides_critical(ex["inertia"], sigma), crossing,
+                     negative_besides_critical(ex["inertia"], sigma), crossing,
                      res.iterations, stats)
 
 
@@ -250,7 +250,7 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     >>> bool(abs(fold.value - 2 / (3 * np.sqrt(3))) < 1e-12), fold.side
     (True, -1)
     """
-    counter = problem if isinstance(problem, _Counting) else _Counting(problem)
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
     start = counter.stats()
     u = np.array(u, dtype=float)
     p = np.array(p, dtype=float)
@@ -261,10 +261,10 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
             v0 = fact.solve(-counter.dresidual(u, p, i))
         except EngineFailure:
             v0 = np.ones_like(u)
-    system = _FoldSystem(counter, v0, [i])
+    system = FoldSystem(counter, v0, [i])
     res = correct(counter, u, p, system, tol)
     if not res.converged:
         return None, res
-    fold = _fold_point(counter, res, i, check_inertia, inertia_step, None)
+    fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
     stats = counter.stats() - start
     return FoldPoint(**{**fold.__dict__, "stats": stats}), res

@@ -253,7 +253,7 @@ def parameter_index(problem, param, n_params: int) -> int:
     return int(param)
 
 
-class _Counting:
+class Counting:
     """The problem seen through counters: every driver calls it, not the problem."""
 
     def __init__(self, problem):
