@@ -26,8 +26,16 @@ import argparse
 import os
 import sys
 
-from _common import (RunStore, analyse_sequence, estimate_unknowns, fmt, local_orders,
-                     machine_info, nested_family, run_isolated)
+from _common import (
+    RunStore,
+    analyse_sequence,
+    estimate_unknowns,
+    fmt,
+    local_orders,
+    machine_info,
+    nested_family,
+    run_isolated,
+)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")

@@ -19,8 +19,8 @@ _spec = importlib.util.spec_from_file_location("bench_manufactured", _PATH)
 mms = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mms)
 
-from skfem_sheet import Sheet  # noqa: E402
-from skfem_sheet.model import clamp_displacement  # noqa: E402
+from skfem_sheet import Sheet
+from skfem_sheet.model import clamp_displacement
 
 
 @pytest.fixture(scope="module")
