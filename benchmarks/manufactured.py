@@ -80,6 +80,7 @@ from skfem_sheet import Sheet
 from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.model import SheetProblem
+from skfem_sheet.params import ParameterError
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")
@@ -168,6 +169,12 @@ def manufactured_fields(kappa, mu, gravity=GRAVITY, bend=FIELD["bend"], twist=FI
         (first Piola stress), ``body`` (3, ...) ``= -Div P + g e_z``,
         ``source`` (...) ``= J - 1``.
     """
+    if not kappa > 0:
+        raise ParameterError(f"kappa must be in (0, 2 pi) (the clamp wraps the section on a "
+                             f"cylinder of radius 1/kappa), got {kappa!r}")
+    if not bend > 0:
+        raise ParameterError(f"bend must be positive (curvature of the bent mid-line), "
+                             f"got {bend!r}")
     x, y, z = sympy.symbols("x y z", real=True)
     X = sympy.Matrix([x, y, z])
     R = 1 / sympy.nsimplify(kappa)

@@ -122,3 +122,12 @@ def test_json_interface(study):
     assert [m["h"] for m in study["meshes"]] == [0.5, 0.25, 0.125]
     for m in study["meshes"]:
         assert {"u_l2", "u_h1", "p_l2", "tip", "tip_exact", "dofs"} <= set(m)
+
+
+def test_bad_field_parameters_raise():
+    from skfem_sheet.params import ParameterError
+
+    with pytest.raises(ParameterError, match="kappa"):
+        mms.manufactured_fields(0.0, 10.0)
+    with pytest.raises(ParameterError, match="bend"):
+        mms.manufactured_fields(2.5, 10.0, bend=0.0)
