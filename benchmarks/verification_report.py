@@ -187,7 +187,7 @@ def reduced_checks(results):
         long = [r for r in rect if r[1] >= 0.75]
         worst = max(abs(r[2]) for r in long)
         out.append(Check(section, "rectangle, a/R = 0: ribbon (free c, nu = 1/2) against the "
-                         f"heavy elastica, largest |relative difference| for L >= 0.75",
+                         "heavy elastica, largest |relative difference| for L >= 0.75",
                          f"{100 * worst:.3f}%", "<= 0.5%", _verdict(worst <= 5e-3), src, cmd))
     tri = [r for r in rows if r[0] == 0.0]
     if tri:
