@@ -9,7 +9,7 @@ tangent, gravity load and clamp) is solved with extra data that make smooth
 exact fields ``U*``, ``p*`` the solution of the continuous problem, on nested
 meshes of a rectangular sheet; the errors are measured against the exact fields.
 
-Continuous problem as the package assembles it (``skfem_sheet/model.py``)::
+Continuous problem as the package assembles it (``skfem_sheet/problem.py``, ``skfem_sheet/kernels.py``)::
 
     R_u(v) = int P(F, p) : grad v dV + g int v_z dV          (weight density 1, load factor g)
     R_p(q) = - int (J - 1) q dV
@@ -79,8 +79,8 @@ from skfem import Basis, FacetBasis
 from skfem_sheet import Sheet
 from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.mesh import sheet_mesh
-from skfem_sheet.model import SheetProblem
 from skfem_sheet.params import ParameterError
+from skfem_sheet.problem import SheetProblem
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")

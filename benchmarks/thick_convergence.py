@@ -225,7 +225,7 @@ def main(argv=None):
     all_runs = []
     for (b, l, _), fam in zip(families, fams):
         runs = []
-        for h, layers, k in fam:
+        for h, _layers, k in fam:
             s = spec(b, l, k)
             rec = store.get(s)
             if rec is None:

@@ -20,7 +20,7 @@ mms = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mms)
 
 from skfem_sheet import Sheet
-from skfem_sheet.model import clamp_displacement
+from skfem_sheet.kernels import clamp_displacement
 
 
 @pytest.fixture(scope="module")
