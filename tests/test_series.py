@@ -4,6 +4,7 @@ The series are read back with meshio (the ``.pvd`` is parsed as XML for the
 list of files and times): one VTU per accepted load step (or branch point),
 times strictly increasing, the last step identical to ``Result.write``'s VTU.
 """
+import json
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -167,3 +168,26 @@ def test_write_series_rejects_non_increasing_times(curvature_first, tmp_path):
     r, s, _, _ = curvature_first
     with pytest.raises(ParameterError, match="times"):
         write_series(tmp_path, "x", s.frames[:2], times=[1.0, 1.0])
+
+
+def test_cli_bistability_series(tmp_path):
+    """bistability --series: one series per branch, one VTU per branch point, timed by the
+    length going up and by the distance travelled going down."""
+    out, js = tmp_path / "b", tmp_path / "b.json"
+    rc = main(["bistability", "--curvature", "2.5", "--lengths", "0.5:0.7", "--hmax", "0.2",
+               "--step", "0.1", "--quiet", "--series", str(out), "--json", str(js)])
+    assert rc == 0
+    data = json.loads(js.read_text())
+    up = read_pvd(out / "curvature-dominated.pvd")
+    down = read_pvd(out / "gravity-dominated.pvd")
+    L_up = data["curvature_dominated"]["lengths"]
+    L_down = data["gravity_dominated"]["lengths"]
+    assert len(up) == len(L_up) >= 2 and len(down) == len(L_down) >= 2
+    np.testing.assert_allclose([t for t, _ in up], L_up, atol=1e-12)
+    np.testing.assert_allclose([t for t, _ in down],
+                               np.concatenate([[0], np.cumsum(np.abs(np.diff(L_down)))]),
+                               atol=1e-12)
+    for (_, f), L in zip(down, L_down):
+        m = meshio.read(f)
+        assert m.points[:, 0].max() == pytest.approx(L, rel=1e-9)
+        assert float(m.field_data["parameter"][0]) == pytest.approx(L)
