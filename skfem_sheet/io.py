@@ -220,6 +220,9 @@ class Series:
     S-curve).  The loads and the parameter are also stored in each VTU as
     field data (``kappa``, ``gravity``; ``parameter``).
 
+    Memory: one copy of the state vector per frame (8 bytes per unknown),
+    e.g. about 20 MB per step for a million unknowns.
+
     Examples
     --------
     >>> s = Series()

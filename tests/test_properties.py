@@ -35,7 +35,7 @@ from skfem_sheet.reduced.ribbon import ribbon_continuation
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                       HealthCheck.too_slow],
-                derandomize=True)
+                derandomize=True, database=None)
 
 
 class Reached(Exception):
