@@ -191,3 +191,30 @@ def test_cli_bistability_series(tmp_path):
         m = meshio.read(f)
         assert m.points[:, 0].max() == pytest.approx(L, rel=1e-9)
         assert float(m.field_data["parameter"][0]) == pytest.approx(L)
+
+
+def test_s_curve_series_through_both_folds(tmp_path):
+    """The S-curve as a series: L goes up, back between the folds and up again; the time is
+    the distance travelled in L (strictly increasing), each VTU keeps its length and its
+    stability, and the frames between the folds are the unstable middle branch."""
+    from skfem_sheet.bistability import s_curve
+
+    s = Series()
+    sc = s_curve(Sheet(length=1.2, curvature=2.5), 1.45, hmax=0.2, ds=0.1, ds_max=0.4,
+                 on_point=s.on_point)
+    assert sc.converged and len(sc.folds) == 2
+    entries = read_pvd(sc.write_series(tmp_path, "s-curve", s))
+    assert len(entries) == len(sc.points)
+    times = np.array([t for t, _ in entries])
+    assert np.all(np.diff(times) > 0)
+    np.testing.assert_allclose(np.diff(times), np.abs(np.diff(sc.lengths)), atol=1e-12)
+    stable = []
+    for (_, f), p in zip(entries, sc.points):
+        m = meshio.read(f)
+        assert float(m.field_data["parameter"][0]) == pytest.approx(p.length)
+        assert m.points[:, 0].max() == pytest.approx(p.length, rel=1e-9)
+        stable.append(int(m.field_data["stable"][0]))
+    assert stable == [int(p.stable) for p in sc.points]
+    L = sc.lengths
+    back = np.flatnonzero(np.diff(L) < 0)  # the steps where L goes back: the middle branch
+    assert back.size > 0 and not any(stable[i + 1] for i in back[1:-1])
