@@ -619,7 +619,7 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
         L_p = L + h * t_L
         ok, its = False, 0
         wk, Lk = w_p.copy(), L_p
-        for its in range(1, opts.max_iterations + 1):
+        for its in range(1, opts.max_iterations + 1):  # noqa: B007 (its is read after the loop)
             prob = track.at(Lk)
             r, Jmin = timed(stats, "assembly_s", prob.residual, wk, 1.0)
             if not Jmin > 0:

@@ -17,9 +17,15 @@ from skfem import BilinearForm, asm
 
 from .assembly import Assembler, assembler_for
 from .discretisation import SaddlePointLayout, TaylorHoodSpace, taylor_hood_space
-from .kernels import (clamp_displacement, clamp_displacement_rate, element_residuals,
-                      element_tangent_blocks, first_invariant, kinematics,
-                      strain_energy_density)
+from .kernels import (
+    clamp_displacement,
+    clamp_displacement_rate,
+    element_residuals,
+    element_tangent_blocks,
+    first_invariant,
+    kinematics,
+    strain_energy_density,
+)
 from .mesh import SheetMesh
 from .params import Sheet
 

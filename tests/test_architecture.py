@@ -36,6 +36,7 @@ LAYERS = {
     "solve.py": 11,           # solve, Result, Result.to_record
     "__init__.py": 11,        # the package's facade (Sheet, solve, Result, ...)
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
+    "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
     "plot.py": 14,            # drawing a solved sheet

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from _states import random_state, small_problem
+
 from skfem_sheet import Sheet, assembly
 from skfem_sheet.solve import build_problem
 

@@ -109,6 +109,16 @@ def test_solve_refine_is_passed_and_reported(tmp_path):
     assert s["dofs"] > 4 * base.dofs
 
 
+def test_fold_curve_bad_input_is_one_line_exit_2(capsys):
+    from skfem_sheet.cli import main
+
+    assert main(["fold-curve", "--curvature", "7", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "curvature" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert main(["fold-curve", "--lengths", "2:1", "--quiet"]) == 2
+    assert "lengths" in capsys.readouterr().err
+
+
 # -- CLI parity with the API: --version, --full-sheet, the solver list, --si ------------------
 def test_version_flag():
     from skfem_sheet import __version__

@@ -1,8 +1,8 @@
 """SheetProblem: residual, tangent and energy agree; loads; with_length."""
 import numpy as np
 import pytest
-
 from _states import random_state, small_problem
+
 from skfem_sheet import Sheet
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.problem import SheetProblem

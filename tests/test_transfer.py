@@ -21,8 +21,8 @@ from skfem_sheet.analyses.transfer import (
     transfer,
 )
 from skfem_sheet.mesh import SheetMesh, sheet_mesh
-from skfem_sheet.problem import SheetProblem
 from skfem_sheet.params import ParameterError
+from skfem_sheet.problem import SheetProblem
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -9,6 +9,7 @@ Commands
                  ribbon; see ``skfem_sheet.reduced``)
 ``sweep``        a grid of sheets in parallel into one resumable table
 ``bistability``  pop-up and standout lengths of one sheet (optional S-curve)
+``fold-curve``   the fold curve in (L, b/a) at one a/R, through its cusp
 ``fold-map``     pop-up and standout lengths over a grid of (b/a, a/R)
 ``figure``       one of the paper's figures
 
@@ -28,12 +29,12 @@ import sys
 
 from ..params import ParameterError
 from ..version import __version__
-from . import bistability, demo, figure, fold_map, rom, solve, sweep
+from . import bistability, demo, figure, fold_curve, fold_map, rom, solve, sweep
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: The command modules, in the order of ``--help``.
-COMMANDS = (solve, demo, rom, sweep, bistability, fold_map, figure)
+COMMANDS = (solve, demo, rom, sweep, bistability, fold_curve, fold_map, figure)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,413 @@
+"""Branches of equilibria in one parameter: natural and pseudo-arclength continuation.
+
+:func:`natural`
+    steps the parameter, predicts with ``du/dp = -K^{-1} R_p`` (one
+    back-substitution with the last factorisation) and corrects with Newton at
+    fixed parameter; steps grow after easy corrections and are halved after
+    failures.  A failed step (Newton failed, the inertia changed, or the
+    state jumped) triggers an attempt to locate a fold from the last
+    equilibrium (:func:`~skfem_sheet.engine.fold.locate_fold`); a fold inside
+    the failed step ends the branch there, located to the Newton tolerance.
+:func:`arclength`
+    pseudo-arclength continuation in ``(u, p_i)``: the equilibrium equations
+    bordered by ``<t_u, u - u_k> + t_p (p_i - p_k) = ds``, solved by block
+    elimination with the one factorisation of the tangent per iteration
+    (:class:`~skfem_sheet.engine.corrector.Bordered`), which stays usable at
+    folds.  Folds are detected by a sign change of the tangent's parameter
+    component ``t_p`` (and of the inertia) between points and located by
+    :func:`~skfem_sheet.engine.fold.locate_fold` from the nearer point.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..params import ParameterError, check_range
+from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
+from .fold import FoldSystem, fold_point, locate_fold
+from .protocol import Counting, EngineFailure, Stats, parameter_index
+
+__all__ = ["Branch", "BranchPoint", "arclength", "natural"]
+
+
+@dataclass(frozen=True)
+class BranchPoint:
+    """One equilibrium of a branch.
+
+    Attributes
+    ----------
+    p : ndarray
+        Parameters.
+    u : ndarray or None
+        State (None when the driver was asked not to keep states).
+    negative_eigenvalues : int or None
+        From the factorised tangent (None if unknown).
+    iterations : int
+        Newton iterations (factorisations) of its correction.
+    tangent_p : float
+        Parameter component of the unit tangent (arclength), or 1 (natural).
+    """
+
+    p: np.ndarray
+    u: object = field(default=None, repr=False)
+    negative_eigenvalues: object = None
+    iterations: int = 0
+    tangent_p: float = 1.0
+
+
+@dataclass(frozen=True)
+class Branch:
+    """Result of :func:`natural` and :func:`arclength`.
+
+    Attributes
+    ----------
+    points : tuple of BranchPoint
+    parameter : int
+        Index of the continuation parameter.
+    folds : tuple of FoldPoint
+        Located folds, in the order met.
+    completed : bool
+        The parameter reached ``stop`` (natural) or left the range (arclength).
+    reason : str
+        Why the continuation ended otherwise.
+    bracket : tuple
+        Natural continuation: ``(last value on the branch, first value where
+        it was not found)`` when it ended without reaching ``stop``.
+    stats : Stats
+    """
+
+    points: tuple
+    parameter: int
+    folds: tuple = ()
+    completed: bool = False
+    reason: str = ""
+    bracket: tuple = ()
+    stats: Stats = field(default_factory=Stats)
+
+    @property
+    def values(self):
+        """The continuation parameter at every point."""
+        return np.array([pt.p[self.parameter] for pt in self.points])
+
+    @property
+    def fold(self):
+        """The first located fold, or None."""
+        return self.folds[0] if self.folds else None
+
+
+def _start(counter, u0, p0, tol):
+    from .corrector import plain_linearization
+
+    res = correct(counter, u0, p0, plain_linearization(counter), tol)
+    return res
+
+
+def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float = 1e-4,
+            max_step=None, tol: Tolerances = DEFAULT_TOLERANCES, jump=np.inf, locate: bool = True,
+            check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
+            progress=None) -> Branch:
+    """Natural continuation in one parameter with fold detection and location.
+
+    Parameters
+    ----------
+    problem : Problem
+    u0, p0 : ndarray
+        Initial guess and parameters of the first point (corrected first).
+    param : int or str
+        The continuation parameter.
+    stop : float
+        Continue until ``p[param]`` reaches this value (either direction).
+    step, min_step, max_step : float
+        First, smallest and largest parameter step (``max_step`` default ``step``).
+    tol : Tolerances
+    jump : float
+        A step whose equilibrium moved further than this (correction norm)
+        from its prediction failed: it landed on another branch.
+    locate : bool
+        Locate a fold when a step fails (see the module docstring).
+    check_inertia : bool
+        Passed to :func:`~skfem_sheet.engine.fold.locate_fold`.
+    keep_states : bool
+        Keep the state of every point (else only of the last).
+    progress : callable(value) or None
+
+    Returns
+    -------
+    Branch
+        ``fold`` is the located fold where the branch ended, if any.
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - u + p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - 1), ("lam",))
+    >>> b = natural(P, np.array([1.0]), np.array([0.0]), "lam", 1.0, step=0.1, jump=0.3)
+    >>> b.completed, bool(abs(b.fold.value - 2 / (3 * np.sqrt(3))) < 1e-10)
+    (False, True)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start_stats = counter.stats()
+    p = np.array(p0, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    stop = float(stop)
+    step = check_range("step", step, 0, None, lo_open=True)
+    min_step = check_range("min_step", min_step, 0, step, lo_open=True)
+    max_step = step if max_step is None else check_range("max_step", max_step, step, None)
+    direction = 1.0 if stop >= p[i] else -1.0
+
+    def finish(points, folds=(), completed=False, reason="", bracket=()):
+        return Branch(tuple(points), i, tuple(folds), completed, reason, bracket,
+                      counter.stats() - start_stats)
+
+    res = _start(counter, u0, p, tol)
+    if not res.converged:
+        return finish([], reason=f"the first point did not converge: {res.reason}")
+    u, p, fact = res.u, res.p, res.factorization
+    k = fact.inertia()
+    points = [BranchPoint(p.copy(), u, k, res.iterations)]
+    h = step
+    while (stop - p[i]) * direction > 1e-14 and len(points) < max_points:
+        try:
+            dudp = fact.solve(-counter.dresidual(u, p, i))
+        except EngineFailure as err:
+            return finish(points, reason=f"tangent: {err}")
+        lam_try = p[i] + direction * min(h, abs(stop - p[i]))
+        pt = p.copy()
+        pt[i] = lam_try
+        u_pred = u + (lam_try - p[i]) * dudp
+        res = correct(counter, u_pred, pt, _fixed(counter), tol)
+        why = "" if res.converged else f"Newton: {res.reason}"
+        if res.converged:
+            k_new = res.factorization.inertia()
+            if counter.correction_norm(res.u - u_pred) > jump:
+                why = "the state jumped (another branch)"
+            elif k is not None and k_new is not None and k_new != k:
+                why = f"the inertia changed from {k} to {k_new}"
+        if not why:
+            u, p, fact, k = res.u, res.p, res.factorization, k_new
+            if not keep_states:
+                points[-1] = BranchPoint(points[-1].p, None, points[-1].negative_eigenvalues,
+                                         points[-1].iterations)
+            points.append(BranchPoint(p.copy(), u, k, res.iterations))
+            if progress is not None:
+                progress(float(p[i]))
+            h = min(max_step, h * (1.5 if res.iterations <= 3 else 1.0))
+            continue
+        if locate:
+            fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
+                                  check_inertia=check_inertia)
+            # a fold ahead, within the failed step (Newton at fixed parameter
+            # also fails just before a fold, so allow twice the step)
+            # and a turning point of this branch: solutions exist behind it
+            ahead = (fold.value - p[i]) * direction if fold is not None else -1.0
+            if (fold is not None and -1e-12 <= ahead <= 2 * abs(lam_try - p[i]) + 1e-12
+                    and fold.side != direction):
+                return finish(points, [fold], reason=f"fold at {fold.value:.10g} ({why})",
+                              bracket=(float(p[i]), float(lam_try)))
+        if abs(lam_try - p[i]) <= min_step * (1 + 1e-9):
+            return finish(points, reason=f"step below min_step ({why})",
+                          bracket=(float(p[i]), float(lam_try)))
+        h = max(0.5 * abs(lam_try - p[i]), min_step)
+    return finish(points, completed=(stop - p[i]) * direction <= 1e-14,
+                  reason="" if (stop - p[i]) * direction <= 1e-14 else "max_points")
+
+
+def _fixed(counter):
+    from .corrector import plain_linearization
+
+    return plain_linearization(counter)
+
+
+def _unit_tangent(counter, t_u, t_p, prev=None):
+    n = np.sqrt(counter.inner(t_u, t_u) + t_p**2)
+    t_u, t_p = t_u / n, t_p / n
+    if prev is not None and counter.inner(t_u, prev[0]) + t_p * prev[1] < 0:
+        t_u, t_p = -t_u, -t_p
+    return t_u, float(t_p)
+
+
+def _arclength_point(counter, i, t, u_ref, p_ref, h, tol):
+    """The equilibrium at arclength ``h`` along the unit tangent ``t`` from
+    ``(u_ref, p_ref)`` (``res.extra`` is its bordered matrix)."""
+    t_u, t_p = t
+
+    def linearize(uu, pp):
+        r = counter.residual(uu, pp)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = counter.jacobian(uu, pp)
+        f = counter.factorize(J)
+        N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
+        M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
+                     counter.dual(t_u)[:, None], [[t_p]])
+        du, dq = M.solve(-r, [-N])
+        dp = np.zeros_like(pp)
+        dp[i] = dq[0]
+        return counter.residual_norm(r), du, dp, f, M
+
+    p_pred = p_ref.copy()
+    p_pred[i] += h * t_p
+    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
+
+
+def _tangent_at(counter, res, prev):
+    """Unit tangent at a corrected point from its bordered matrix:
+    ``[[K, R_p], [t_prev^T]] t = [0; 1]``."""
+    tu_new, tp_new = res.extra.solve(np.zeros(len(res.u)), [1.0])
+    return _unit_tangent(counter, tu_new, float(tp_new[0]), prev=prev)
+
+
+def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9,
+                   max_iterations=40):
+    """The fold between ``(u, p)`` and the point at arclength ``h``: regula
+    falsi (Illinois) on the tangent's parameter component ``t_p(s)``, each
+    evaluation an arclength correction; then the fold system from there."""
+    s0, f0, s1, f1 = 0.0, t[1], h, t_end[1]
+    best, side = None, 0
+    for _ in range(max_iterations):
+        s = s1 - f1 * (s1 - s0) / (f1 - f0)
+        res = _arclength_point(counter, i, t, u, p, s, tol)
+        if not res.converged:
+            return None
+        try:
+            ts = _tangent_at(counter, res, t)
+        except EngineFailure:
+            return None
+        best = (res, ts)
+        if abs(s1 - s0) <= s_tol or ts[1] == 0:
+            break
+        if np.sign(ts[1]) == np.sign(f1):
+            s1, f1 = s, ts[1]
+            if side == 1:
+                f0 *= 0.5
+            side = 1
+        else:
+            s0, f0 = s, ts[1]
+            if side == -1:
+                f1 *= 0.5
+            side = -1
+        if abs(s1 - s0) <= s_tol:
+            break
+    if best is None:
+        return None
+    res, ts = best
+    fold, _ = locate_fold(counter, res.u, res.p, i, v0=ts[0], tol=tol,
+                          check_inertia=check_inertia)
+    if fold is not None:
+        return fold
+    # the fold system still does not converge: the point where t_p = 0 is the fold
+    system = FoldSystem(counter, ts[0], [i])
+    try:
+        system(res.u, res.p)
+    except EngineFailure:
+        return None
+    out = NewtonResult(res.u, res.p, True, 0, "", (), None, Stats(), system.last)
+    return fold_point(counter, out, i, check_inertia, 1e-4, Stats())
+
+
+def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
+              ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
+              max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
+              keep_states: bool = True, progress=None) -> Branch:
+    """Pseudo-arclength continuation in one parameter, through folds.
+
+    Parameters
+    ----------
+    problem : Problem
+    u0, p0 : ndarray
+        First point (corrected first at fixed parameters).
+    param : int or str
+    bounds : (float, float)
+        Stop when ``p[param]`` leaves ``[lo, hi]`` (``completed``).
+    ds, ds_min, ds_max : float
+        First, smallest and largest arclength step (in the norm
+        ``sqrt(<u, u> + p^2)``).
+    direction : {1, -1}
+        Initial direction in the parameter.
+    tol : Tolerances
+    locate : bool
+        Locate every fold met (sign change of ``t_p``).
+    keep_states : bool
+        Keep the state of every point.
+
+    Returns
+    -------
+    Branch
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - u + p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - 1), ("lam",))
+    >>> b = arclength(P, np.array([-1.5]), np.array([1.875]), 0, (-2.0, 2.0), ds=0.2,
+    ...               direction=-1)
+    >>> b.completed, [round(float(f.value), 10) for f in b.folds]
+    (True, [-0.3849001795, 0.3849001795])
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start_stats = counter.stats()
+    p = np.array(p0, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    lo, hi = (float(x) for x in bounds)
+    if not lo < hi:
+        raise ParameterError(f"bounds must be (low, high) with low < high, got {bounds!r}")
+    if direction not in (1, -1):
+        raise ParameterError(f"direction must be 1 or -1, got {direction!r}")
+    ds = check_range("ds", ds, 0, None, lo_open=True)
+    ds_min = check_range("ds_min", ds_min, 0, ds, lo_open=True)
+    ds_max = check_range("ds_max", ds_max, ds, None)
+
+    def finish(points, folds, completed=False, reason=""):
+        return Branch(tuple(points), i, tuple(folds), completed, reason, (),
+                      counter.stats() - start_stats)
+
+    res = _start(counter, u0, p, tol)
+    if not res.converged:
+        return finish([], [], reason=f"the first point did not converge: {res.reason}")
+    u, p, fact = res.u, res.p, res.factorization
+    try:
+        t = _unit_tangent(counter, fact.solve(-counter.dresidual(u, p, i)), 1.0)
+    except EngineFailure as err:
+        return finish([], [], reason=f"tangent at the first point: {err}")
+    if t[1] * direction < 0:
+        t = (-t[0], -t[1])
+    points = [BranchPoint(p.copy(), u, fact.inertia(), res.iterations, t[1])]
+    folds = []
+    h = ds
+    while len(points) < max_points:
+        res = _arclength_point(counter, i, t, u, p, h, tol)
+        if not res.converged:
+            h *= 0.5
+            if h < ds_min:
+                return finish(points, folds, reason=f"arclength step below ds_min at "
+                              f"p = {p[i]:.6g} (Newton: {res.reason})")
+            continue
+        try:
+            t_new = _tangent_at(counter, res, t)
+        except EngineFailure as err:
+            return finish(points, folds, reason=f"tangent: {err}")
+        k_new = res.factorization.inertia()
+        prev_point = points[-1]
+        if not keep_states:
+            points[-1] = BranchPoint(prev_point.p, None, prev_point.negative_eigenvalues,
+                                     prev_point.iterations, prev_point.tangent_p)
+        new_point = BranchPoint(res.p.copy(), res.u, k_new, res.iterations, t_new[1])
+        if locate and np.sign(t_new[1]) != np.sign(t[1]):
+            # a fold between the points: start from the one nearer to it
+            near_u, near_p, near_t = ((u, p, t) if abs(t[1]) < abs(t_new[1])
+                                      else (res.u, res.p, t_new))
+            fold, _ = locate_fold(counter, near_u, near_p, i, v0=near_t[0], tol=tol,
+                                  check_inertia=check_inertia)
+            if fold is None:  # outside Newton's basin for the fold system: t_p = 0 first
+                fold = _turning_point(counter, i, t, u, p, h, t_new, tol, check_inertia)
+            if fold is not None:
+                folds.append(fold)
+        points.append(new_point)
+        u, p, t = res.u, res.p, t_new
+        if progress is not None:
+            progress(float(p[i]))
+        if not lo <= p[i] <= hi:
+            return finish(points, folds, completed=True)
+        h = min(ds_max, h * (1.5 if res.iterations <= 3 else 1.0))
+    return finish(points, folds, reason="max_points")

@@ -1,0 +1,270 @@
+"""Folds: the minimally augmented test function, fold location, fold points.
+
+For a symmetric tangent ``K = dR/du`` and a bordering vector ``v0`` (an
+approximate null vector, normalised), the bordered system (Govaerts,
+*Numerical methods for bifurcations of dynamical equilibria*, SIAM 2000)::
+
+    [[K, v0], [v0^T, 0]] [v; sigma] = [0; 1]
+
+defines ``sigma(u, p)``, which vanishes exactly where ``K`` is singular, and
+the (right = left) null vector ``v``.  The bordered matrix stays nonsingular
+at a fold although ``K`` does not.  Its derivatives (``w = v`` because the
+bordered matrix is symmetric)::
+
+    d sigma / du = -v^T (dK/du) v  ~  -(K(u + e v) - K(u - e v)) v / (2 e)
+    d sigma / dp = -v^T (dK/dp) v  ~  -v . (K(u, p + d) - K(u, p - d)) v / (2 d)
+
+(tangent assemblies only, no further factorisation).  The quadratic fold
+coefficient is ``a = v . D^2 R[v, v] = -(d sigma / du) . v``; near a fold in
+``p_i`` the branch is ``p_i - p_i* ~ -a s^2 / (2 v . R_{p_i})``, so solutions
+exist on the side ``-sign(a v . R_{p_i})`` of the fold.
+
+A fold is located by Newton's method on ``R = 0, sigma = 0`` in ``(u, p_i)``:
+each iteration costs one factorisation (the bordered solves are
+back-substitutions with it).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
+from .protocol import Counting, EngineFailure, Stats, parameter_index
+
+__all__ = ["FoldPoint", "fold_test", "locate_fold"]
+
+
+@dataclass(frozen=True)
+class FoldPoint:
+    """A located fold.
+
+    Attributes
+    ----------
+    u, p : ndarray
+        State and parameters at the fold.
+    v : ndarray
+        Null vector of the tangent (``max |v| = 1``).
+    sigma : float
+        The test function there (``~ 0``).
+    a : float
+        Quadratic fold coefficient ``v . D^2 R[v, v]`` (0 at a cusp).
+    side : int
+        For the located parameter ``p_i``: solutions exist for ``p_i`` on this
+        side of the fold (``-1`` below, ``+1`` above).
+    parameter : int
+        Index of the located parameter.
+    negative_eigenvalues : int or None
+        Negative eigenvalues of the tangent other than the critical one: the
+        two branches meeting at the fold have ``k`` and ``k + 1``.
+    crossing : tuple or None
+        ``(n(u - e v), n(u + e v))``: negative eigenvalue counts of the tangent
+        on both sides of the fold along ``v`` (if checked): they differ by one
+        when exactly one eigenvalue crosses zero.
+    iterations : int
+    stats : Stats
+    """
+
+    u: np.ndarray = field(repr=False)
+    p: np.ndarray
+    v: np.ndarray = field(repr=False)
+    sigma: float
+    a: float
+    side: int
+    parameter: int
+    negative_eigenvalues: object = None
+    crossing: object = None
+    iterations: int = 0
+    stats: Stats = field(default_factory=Stats)
+
+    @property
+    def value(self) -> float:
+        """The located parameter's value at the fold."""
+        return float(self.p[self.parameter])
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    n = float(np.abs(v).max()) if v.size else 0.0
+    if not n > 0 or not np.isfinite(n):
+        raise EngineFailure("zero or non-finite bordering vector")
+    return v / n
+
+
+def fold_test(factorization, matvec, v0):
+    """``(sigma, v)`` of the bordered system with ``K`` factorised.
+
+    Parameters
+    ----------
+    factorization : object with ``solve``
+    matvec : callable, ``x -> K x``
+    v0 : ndarray
+        Bordering vector (approximate null vector).
+
+    Returns
+    -------
+    sigma : float
+    v : ndarray
+        With ``v0 . v = 1`` (``v0`` scaled to unit 2-norm).
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine.protocol import DenseFactorization
+    >>> K = np.diag([2.0, 1e-3])
+    >>> s, v = fold_test(DenseFactorization(K), lambda x: K @ x, np.array([0.1, 1.0]))
+    >>> round(s, 6), np.round(v / v[1], 3).tolist()
+    (-0.00101, [0.0, 1.0])
+    """
+    v0 = np.asarray(v0, dtype=float)
+    v0 = v0 / np.linalg.norm(v0)
+    M = Bordered(factorization, matvec, v0[:, None], v0[:, None], np.zeros((1, 1)))
+    v, s = M.solve(np.zeros(len(v0)), np.ones(1))
+    return float(s[0]), v
+
+
+class FoldSystem:
+    """Linearisation of ``R = 0, sigma = 0`` (+ an arclength row) in the
+    free parameters ``idx``; the bordering vector is updated to the last null
+    vector at every iterate."""
+
+    def __init__(self, counter, v0, idx, arclength=None):
+        self.c, self.v0, self.idx = counter, _unit(v0), list(idx)
+        self.arclength = arclength  # (t_u, t_p (all params), u_ref, p_ref, ds) or None
+        self.last = None
+
+    def sigma_derivatives(self, u, p, v, J):
+        c = self.c
+        eps = (c.fd_state_step * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
+               / max(float(np.abs(v).max()), 1e-300))
+        Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
+        g_u = -(Jp @ v - Jm @ v) / (2 * eps)
+        g_p = []
+        for i in self.idx:
+            h = c.fd_parameter_step * max(1.0, abs(p[i]))
+            pp, pm = p.copy(), p.copy()
+            pp[i] += h
+            pm[i] -= h
+            g_p.append(-float(v @ (c.jacobian(u, pp) @ v - c.jacobian(u, pm) @ v)) / (2 * h))
+        return g_u, np.array(g_p)
+
+    def __call__(self, u, p):
+        c = self.c
+        r = c.residual(u, p)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = c.jacobian(u, p)
+        fact = c.factorize(J)
+
+        def matvec(x):
+            return J @ x
+        sigma, v = fold_test(fact, matvec, self.v0)
+        # the derivatives of sigma need the v of its own normalisation (v0 . v = 1)
+        g_u, g_p = self.sigma_derivatives(u, p, v, J)
+        scale = float(np.abs(v).max())
+        a = -float(g_u @ v) / scale**3  # for the unit null vector below
+        v = _unit(v)
+        R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
+        B, C = R_p, g_u[:, None]
+        D = g_p[None, :]
+        f, g = -r, [-sigma]
+        if self.arclength is not None:
+            t_u, t_p, u_ref, p_ref, ds = self.arclength
+            N = c.inner(t_u, u - u_ref) + float(t_p @ (p - p_ref)) - ds
+            C = np.column_stack([g_u, c.dual(t_u)])
+            D = np.vstack([g_p, t_p[self.idx]])
+            g = [-sigma, -N]
+        M = Bordered(fact, matvec, B, C, D)
+        du, dq = M.solve(f, np.array(g, dtype=float))
+        dp = np.zeros_like(p)
+        dp[self.idx] = dq
+        self.last = {"v": v, "sigma": sigma, "a": a, "R_p": R_p, "g_u": g_u, "g_p": g_p,
+                     "bordered": M, "inertia": fact.inertia()}
+        self.v0 = v
+        return c.residual_norm(r), du, dp, fact, self.last
+
+
+def negative_besides_critical(inertia, sigma):
+    """Negative eigenvalues other than the critical one (``sign(lambda) = -sign(sigma)``)."""
+    if inertia is None:
+        return None
+    return int(inertia) - (1 if sigma > 0 else 0)
+
+
+def inertia_crossing(counter, u, p, v, step):
+    """Negative eigenvalue counts of the tangent at ``u -+ e v``."""
+    e = step * max(1.0, float(np.abs(u).max()))
+    out = []
+    for s in (-1.0, 1.0):
+        try:
+            out.append(counter.factorize(counter.jacobian(u + s * e * v, p)).inertia())
+        except EngineFailure:
+            out.append(None)
+    return None if None in out else tuple(int(x) for x in out)
+
+
+def fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stats):
+    ex = res.extra
+    v, sigma, a = ex["v"], ex["sigma"], ex["a"]
+    vr = float(v @ ex["R_p"][:, 0])
+    side = int(-np.sign(a * vr)) if a * vr != 0 else 0
+    crossing = inertia_crossing(counter, res.u, res.p, v, inertia_step) if check_inertia else None
+    return FoldPoint(res.u, res.p, v, sigma, a, side, i,
+                     negative_besides_critical(ex["inertia"], sigma), crossing,
+                     res.iterations, stats)
+
+
+def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLERANCES,
+                check_inertia: bool = False, inertia_step: float = 1e-4):
+    """Locate a fold in parameter ``param`` near ``(u, p)``.
+
+    Newton's method on ``R(u, p) = 0, sigma(u, p) = 0`` in ``(u, p_param)``,
+    the other parameters fixed.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+        Start (an equilibrium near the fold, or any guess).
+    param : int or str
+        The parameter in which the branch turns.
+    v0 : ndarray, optional
+        Bordering vector; default: ``du/dp`` at the start (near a fold it is
+        dominated by the null vector).
+    tol : Tolerances
+    check_inertia : bool
+        Also factorise the tangent at ``u -+ e v`` (two factorisations) and
+        report the negative eigenvalue counts there (``FoldPoint.crossing``).
+    inertia_step : float
+        ``e`` relative to ``max(1, max |u|)``.
+
+    Returns
+    -------
+    (FoldPoint or None, NewtonResult)
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - u + p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - 1), ("lam",))
+    >>> fold, _ = locate_fold(P, np.array([0.7]), np.array([0.38]), "lam")
+    >>> bool(abs(fold.value - 2 / (3 * np.sqrt(3))) < 1e-12), fold.side
+    (True, -1)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start = counter.stats()
+    u = np.array(u, dtype=float)
+    p = np.array(p, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    if v0 is None:
+        try:
+            fact = counter.factorize(counter.jacobian(u, p))
+            v0 = fact.solve(-counter.dresidual(u, p, i))
+        except EngineFailure:
+            v0 = np.ones_like(u)
+    system = FoldSystem(counter, v0, [i])
+    res = correct(counter, u, p, system, tol)
+    if not res.converged:
+        return None, res
+    fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
+    stats = counter.stats() - start
+    return FoldPoint(**{**fold.__dict__, "stats": stats}), res
