@@ -83,6 +83,22 @@ class _Curve:
     def stable(self):
         return [p.stable for p in self.points]
 
+    def write_series(self, directory, name, series) -> str:
+        """Write the states of this curve as a ParaView series, ``directory/name.pvd``.
+
+        ``series`` is the :class:`skfem_sheet.io.Series` passed as ``on_point``
+        (its :meth:`~skfem_sheet.io.Series.on_point`) to the continuation that
+        made this curve: one state per point.  Each VTU also holds the
+        point's ``deflection`` and ``stable`` (1, 0, or -1 unknown) as field data.
+        """
+        if len(series) != len(self.points) or not np.allclose(
+                [f.time for f in series.frames], self.lengths, rtol=0, atol=1e-12):
+            raise ParameterError(f"series must hold one state per point of this curve "
+                                 f"({len(self.points)}), got {len(series)} that do not match")
+        data = [{"deflection": p.deflection, "stable": -1 if p.stable is None else int(p.stable)}
+                for p in self.points]
+        return series.write(directory, name, data=data)
+
 
 @dataclass(frozen=True)
 class Branch(_Curve):
@@ -187,7 +203,8 @@ def _check_common(sheet, hmax, step, tol):
 
 def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", hmax: float = 0.06,
                   layers=None, solver: str = "auto", symmetric: bool = True, step: float = 0.1,
-                  tol: float = 0.005, jump: float = 0.1, progress=None) -> Branch:
+                  tol: float = 0.005, jump: float = 0.1, progress=None,
+                  on_point=None) -> Branch:
     """Follow the branch selected by ``path`` at ``sheet.length`` to ``stop``.
 
     Natural continuation in L at full load: each step is predicted with
@@ -210,6 +227,9 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
         Largest length step.
     tol : float
         Half-width of the final fold bracket.
+    on_point : callable(problem, w, length) or None
+        Called with the state of each point of the branch (e.g.
+        ``skfem_sheet.io.Series().on_point``, then ``Branch.write_series``).
 
     Returns
     -------
@@ -225,13 +245,13 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     stop = check_range("stop", stop, 0.05, 20.0)
     return _follow(_LengthParameter(), sheet, stop, path=path, hmax=hmax, layers=layers,
                    solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
-                   progress=progress)
+                   progress=progress, on_point=on_point)
 
 
 def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", hmax: float = 0.06,
                      layers=None, solver: str = "auto", symmetric: bool = True,
                      step: float = 0.25, tol: float = 0.005, jump: float = 0.1,
-                     progress=None) -> Branch:
+                     progress=None, on_point=None) -> Branch:
     """Follow a branch in the clamp curvature a/R at fixed length, to ``stop``.
 
     The same natural continuation as :func:`follow_length`, with the clamp
@@ -252,7 +272,7 @@ def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", 
     stop = check_range("stop", stop, 0.0, 2 * np.pi, hi_open=True)
     return _follow(_CurvatureParameter(sheet.curvature), sheet, stop, path=path, hmax=hmax,
                    layers=layers, solver=solver, symmetric=symmetric, step=step, tol=tol,
-                   jump=jump, progress=progress)
+                   jump=jump, progress=progress, on_point=on_point)
 
 
 class _LengthParameter:
@@ -303,7 +323,7 @@ class _CurvatureParameter:
 
 
 def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
-            progress):
+            progress, on_point=None):
     """Natural continuation in ``param`` with fold bisection (see :func:`follow_length`)."""
     t0 = time.perf_counter()
     stats = Stats()
@@ -319,6 +339,8 @@ def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, 
     direction = 1.0 if stop >= v else -1.0
     st, k = stability(problem, track.solver)
     points = [BranchPoint(v, tip_deflection(problem, w), st, k, stats.newton_iterations)]
+    if on_point is not None:
+        on_point(problem, w, v)
     dwdv = param.rate(problem, w, track.solver)
     h = step
     guard = 0.25 * max(1.0, sheet.length)
@@ -350,6 +372,8 @@ def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, 
         if not why:
             problem, w, v = trial, res.w, v_try
             points.append(BranchPoint(float(v), d_new, st, k, stats.newton_iterations - its0))
+            if on_point is not None:
+                on_point(problem, w, v)
             dwdv = param.rate(problem, w, track.solver)
             h = min(step, 1.5 * h)
             if progress is not None:
@@ -425,13 +449,14 @@ class Bistability:
 def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6, 2.4),
                  hmax: float = 0.06, layers=None, solver: str = "auto", step: float = 0.1,
                  tol: float = 0.005, thickness: float = 0.03, modulus: float = 735.0,
-                 progress: bool = False) -> Bistability:
+                 progress: bool = False, on_point=(None, None)) -> Bistability:
     """Standout and pop-up lengths by continuation in L in both directions.
 
     The curvature-dominated branch is followed from ``lengths[0]``
     (curvature-first) with increasing L until it is lost (``L1*``), the
     gravity-dominated one from ``lengths[1]`` (gravity-first) with decreasing
-    L (``L0*``).  Each fold is located to ``+- tol``.
+    L (``L0*``).  Each fold is located to ``+- tol``.  ``on_point`` is the
+    pair of the two continuations' ``on_point`` (see :func:`follow_length`).
 
     Examples
     --------
@@ -448,13 +473,14 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     _check_common(base, hmax, step, tol)
     bars = _bars(progress, lo, hi)
     up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
-                       solver=solver, step=step, tol=tol, progress=bars[0])
+                       solver=solver, step=step, tol=tol, progress=bars[0],
+                       on_point=on_point[0])
     if base.curvature == 0.0:
         down = up  # a flat clamp: both load paths are one problem, with one branch
     else:
         down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
                              layers=layers, solver=solver, step=step, tol=tol,
-                             progress=bars[1])
+                             progress=bars[1], on_point=on_point[1])
     for b in bars:
         if b is not None:
             b.close()
@@ -519,7 +545,7 @@ class SCurve(_Curve):
 
 def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solver: str = "auto",
             symmetric: bool = True, ds: float = 0.05, ds_max: float = 0.15, max_points: int = 200,
-            progress=None) -> SCurve:
+            progress=None, on_point=None) -> SCurve:
     """Pseudo-arclength continuation in L from the curvature-dominated state
     at ``sheet.length`` until the length exceeds ``stop`` (on whatever branch).
 
@@ -537,7 +563,8 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     points around it.
 
     One mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop``
-    must be within a factor 1.8 of each other.
+    must be within a factor 1.8 of each other.  ``on_point(problem, w, L)``,
+    if given, is called with the state of each point (see :func:`follow_length`).
     """
     _check_common(sheet, hmax, 0.5, 0.01)
     stop = check_range("stop", stop, sheet.length, 20.0, lo_open=True)
@@ -579,6 +606,8 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
 
     st, k = stability(problem, track.solver)
     points = [BranchPoint(L, tip_deflection(problem, w), st, k, 0)]
+    if on_point is not None:
+        on_point(problem, w, L)
     tL_hist, s_hist, s = [], [], 0.0
     t = tangent_at(problem, w)
     tL_hist.append(t[1])
@@ -631,6 +660,8 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
         s += h
         st, k = stability(prob, track.solver)
         points.append(BranchPoint(float(L), tip_deflection(prob, w), st, k, its))
+        if on_point is not None:
+            on_point(prob, w, L)
         t = tangent_at(prob, w, prev=t)
         tL_hist.append(t[1])
         s_hist.append(s)

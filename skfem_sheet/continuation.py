@@ -206,7 +206,8 @@ def _growth(iterations, opts):
 def follow_path(problem, path: str, kappa: float, solver, *,
                 newton_options: NewtonOptions = NewtonOptions(),
                 step_options: StepOptions = StepOptions(),
-                stats: Stats | None = None, w0=None, progress=None) -> PathOutcome:
+                stats: Stats | None = None, w0=None, progress=None,
+                on_step=None) -> PathOutcome:
     """Run a load path from the reference state (or ``w0``) to full load.
 
     Parameters
@@ -217,6 +218,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
         Target clamp curvature a/R.
     solver : linear-solver back-end
     progress : callable(fraction_of_path) or None
+    on_step : callable(problem, w, kappa, g) or None
+        Called after each accepted step with its state and load.
 
     Returns
     -------
@@ -245,6 +248,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 out.w, out.kappa, out.g = w, 0.0, 1.0
                 out.steps.append((name, lam, res.iterations))
                 have_factor = True
+                if on_step is not None:
+                    on_step(problem, w, 0.0, 1.0)
                 if progress is not None:
                     progress((iphase + lam) / len(phases))
             elif res is not None:
@@ -296,6 +301,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 w, lam = res.w, lam_new
                 out.w, out.kappa, out.g = w, k_new, g_new
                 out.steps.append((name, lam, res.iterations))
+                if on_step is not None:
+                    on_step(problem, w, k_new, g_new)
                 # Newton leaves the factorisation of its last tangent behind
                 if progress is not None:
                     progress((iphase + lam) / len(phases))

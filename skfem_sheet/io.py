@@ -1,16 +1,21 @@
-"""Writing results: VTU (ParaView) through meshio, JSON summaries."""
+"""Writing results: VTU (ParaView) through meshio, ParaView time series, JSON summaries."""
 from __future__ import annotations
 
 import json
 import math
 import os
 import tempfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from .params import ParameterError
 
 __all__ = ["write_result", "write_json", "check_writable", "whole_sheet_fields",
+           "state_fields", "write_vtu", "Frame", "Series", "write_series", "read_pvd",
+           "check_directory",
            "atomic_write", "to_jsonable", "dumps_json"]
 
 
@@ -113,14 +118,39 @@ def write_result(result, filename) -> None:
     if path.lower().endswith(".json"):
         write_json(result.summary(), path)
         return
+    write_vtu(path, *whole_sheet_fields(result))
+
+
+def write_vtu(filename, p, t, displacement, pressure, psi, field_data=None) -> None:
+    """Write the fields of :func:`whole_sheet_fields` as one VTU file (atomically).
+
+    ``field_data`` (name -> number) is stored as VTU field data (one value
+    each), e.g. the load of a step of a series.
+    """
+    # deferred: meshio is only needed to write VTU files
     import meshio
 
-    p, t, U, pressure, psi = whole_sheet_fields(result)
     out = meshio.Mesh(
         points=p.T, cells=[("tetra", t.T.astype(np.int64))],
-        point_data={"displacement": U, "pressure": pressure},
+        point_data={"displacement": displacement, "pressure": pressure},
         cell_data={"psi_over_mu": [psi]})
-    meshio.write(path, out, file_format="vtu")
+    path = os.fspath(filename)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".vtu", dir=folder)
+    os.close(fd)
+    try:
+        meshio.write(tmp, out, file_format="vtu")
+        with open(tmp, "rb") as f:
+            data = f.read()
+    finally:
+        os.unlink(tmp)
+    if field_data:
+        # meshio's VTU writer drops field data (meshio 5.3): add the block by hand
+        arrays = "".join(
+            f'<DataArray type="Float64" Name={quoteattr(str(k))} NumberOfTuples="1" '
+            f'format="ascii">{float(v)!r}</DataArray>\n' for k, v in field_data.items())
+        data = data.replace(b"<Piece ", f"<FieldData>\n{arrays}</FieldData>\n<Piece ".encode(), 1)
+    atomic_write(path, data)
 
 
 def whole_sheet_fields(result):
@@ -138,9 +168,178 @@ def whole_sheet_fields(result):
     psi : ndarray (m,)
         psi/mu per tetrahedron.
     """
-    mesh = result.problem.sheet_mesh
+    return state_fields(result.problem, result.w)
+
+
+def state_fields(problem, w):
+    """:func:`whole_sheet_fields` of the state ``w`` of ``problem``.
+
+    A problem stretched to another length (``problem.with_length``) gives
+    the reference vertices of the stretched sheet (x scaled by
+    ``problem.length / mesh.length``).
+    """
+    mesh = problem.sheet_mesh
     p, t, source, sign, element_source = mesh.mirrored()
     nv = mesh.n_vertices
-    U = result.displacement[:nv][source]  # P2 vertex dofs come first (skfem numbering)
+    U, _ = problem.split(w)
+    U = U[:nv][source]  # P2 vertex dofs come first (skfem numbering)
     U[:, 1] *= sign
-    return p, t, U, result.pressure[source], result.energy_density[element_source]
+    if problem.length != mesh.length:
+        p = p * np.array([[problem.length / mesh.length], [1.0], [1.0]])
+    pressure = problem.paper_pressure(w)[source]
+    return p, t, U, pressure, problem.energy_density(w)[element_source]
+
+
+# -- ParaView time series ------------------------------------------------------------
+@dataclass(frozen=True)
+class Frame:
+    """One state of a series: its time, the problem it solves and the state."""
+
+    time: float
+    problem: object = field(repr=False)
+    w: np.ndarray = field(repr=False)
+    data: dict = field(default_factory=dict)
+
+
+class Series:
+    """States collected along a continuation, written as a ParaView series.
+
+    Collects nothing until it is passed to a continuation:
+    ``solve(..., series=s)`` (each accepted load step, via :meth:`on_step`) or
+    the ``on_point`` callbacks of :mod:`skfem_sheet.bistability` (each point
+    of a branch or S-curve, via :meth:`on_point`).  :meth:`write` then writes
+    ``<directory>/<name>.pvd`` and one VTU file per state, with the fields of
+    ``Result.write`` (whole sheet, mirrored).
+
+    Time axis of the ``.pvd``: for a load path the load parameter
+    ``t = kappa / (a/R) + g`` (curvature-first: 0..1 is the curvature ramp,
+    1..2 gravity; gravity-first the reverse; a flat clamp has only the gravity
+    ramp, 0..1); for a branch the continuation parameter (length or
+    curvature) when it increases along the branch, otherwise the distance
+    travelled in it, ``sum |dL|`` (a branch followed downwards, the
+    S-curve).  The loads and the parameter are also stored in each VTU as
+    field data (``kappa``, ``gravity``; ``parameter``).
+
+    Memory: one copy of the state vector per frame (8 bytes per unknown),
+    e.g. about 20 MB per step for a million unknowns.
+
+    Examples
+    --------
+    >>> s = Series()
+    >>> len(s), s.times().tolist()
+    (0, [])
+    """
+
+    def __init__(self):
+        self.frames = []
+
+    def __len__(self):
+        return len(self.frames)
+
+    def add(self, time, problem, w, **data) -> None:
+        """Record the state ``w`` of ``problem`` at ``time`` (copied)."""
+        self.frames.append(Frame(float(time), problem, np.array(w, dtype=float, copy=True),
+                                 dict(data)))
+
+    def on_step(self, problem, w, kappa, g) -> None:
+        """Hook of ``continuation.follow_path``: one accepted load step."""
+        k_target = problem.sheet.curvature
+        t = float(g) + (float(kappa) / k_target if k_target else 0.0)
+        self.add(t, problem, w, kappa=float(kappa), gravity=float(g))
+
+    def on_point(self, problem, w, value) -> None:
+        """Hook of the continuations in :mod:`skfem_sheet.bistability`: one point."""
+        self.add(value, problem, w, parameter=float(value))
+
+    def times(self):
+        """The series' times (see the class notes)."""
+        v = np.array([f.time for f in self.frames], dtype=float)
+        if len(v) > 1 and not np.all(np.diff(v) > 0):
+            v = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(v)))])
+        return v
+
+    def write(self, directory, name, data=None) -> str:
+        """Write ``directory/name.pvd`` and ``directory/name/name_NNNN.vtu``.
+
+        ``data`` (optional) is a list of extra field data, one dict per
+        frame.  Returns the path of the ``.pvd``.
+        """
+        return write_series(directory, name, self.frames, times=self.times(), data=data)
+
+
+def write_series(directory, name, frames, times=None, data=None) -> str:
+    """Write a ParaView time series: ``directory/name.pvd`` and one VTU per frame.
+
+    Parameters
+    ----------
+    directory : path
+        Created if missing (its parent must exist).
+    name : str
+        File name stem: a letter, digit, ``_``, ``-`` or ``.``, no separators.
+    frames : sequence of Frame
+    times : sequence of float, optional
+        Strictly increasing times (default: the frames' own times).
+    data : sequence of dict, optional
+        Extra field data per frame.
+
+    Returns
+    -------
+    str
+        The ``.pvd`` path.  The VTU files are in ``directory/name/``,
+        referred to by relative paths.
+    """
+    directory = os.fspath(directory)
+    name = str(name)
+    if not name or not all(c.isalnum() or c in "_-." for c in name) or name.startswith("."):
+        raise ParameterError(f"series name must be letters, digits, '_', '-' or '.', "
+                             f"got {name!r}")
+    frames = list(frames)
+    times = np.array([f.time for f in frames] if times is None else times, dtype=float)
+    if len(times) != len(frames):
+        raise ParameterError(f"times must have one value per frame ({len(frames)}), "
+                             f"got {len(times)}")
+    if not np.all(np.isfinite(times)) or (len(times) > 1 and not np.all(np.diff(times) > 0)):
+        raise ParameterError("times must be finite and strictly increasing")
+    if data is not None and len(data) != len(frames):
+        raise ParameterError(f"data must have one dict per frame ({len(frames)}), "
+                             f"got {len(data)}")
+    check_directory("series directory", directory)
+    os.makedirs(os.path.join(directory, name), exist_ok=True)
+    entries = []
+    for i, (frame, t) in enumerate(zip(frames, times)):
+        rel = f"{name}/{name}_{i:04d}.vtu"
+        extra = {**frame.data, **(data[i] if data is not None else {})}
+        write_vtu(os.path.join(directory, rel), *state_fields(frame.problem, frame.w),
+                  field_data={"time": float(t), **extra})
+        entries.append(f'    <DataSet timestep="{float(t)!r}" group="" part="0" '
+                       f'file={quoteattr(rel)}/>')
+    pvd = ("<?xml version=\"1.0\"?>\n"
+           '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+           "  <Collection>\n" + "".join(e + "\n" for e in entries)
+           + "  </Collection>\n</VTKFile>\n")
+    path = os.path.join(directory, name + ".pvd")
+    atomic_write(path, pvd)
+    return path
+
+
+def read_pvd(filename):
+    """The ``(time, absolute VTU path)`` pairs of a ``.pvd`` collection, in file order."""
+    path = os.fspath(filename)
+    root = ET.parse(path).getroot()
+    folder = os.path.dirname(os.path.abspath(path))
+    return [(float(d.get("timestep")), os.path.join(folder, d.get("file")))
+            for d in root.iter("DataSet")]
+
+
+def check_directory(name: str, directory) -> str:
+    """Check up front that ``directory`` can be created or written into
+    (``ParameterError`` naming ``name``)."""
+    path = os.fspath(directory)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ParameterError(f"{name} must be a directory, {path!r} is a file")
+    parent = path if os.path.isdir(path) else (os.path.dirname(os.path.abspath(path)) or ".")
+    if not os.path.isdir(parent):
+        raise ParameterError(f"{name} must be in an existing folder, {parent!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ParameterError(f"{name} must be writable, {parent!r} is not")
+    return path

@@ -254,7 +254,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           symmetric: bool = True,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
-          on_failure: str = "raise", progress: bool = False) -> Result:
+          on_failure: str = "raise", progress: bool = False, series=None) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -288,6 +288,9 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         or return a :class:`Result` with ``converged=False``.
     progress : bool
         Show a progress bar on stderr.
+    series : skfem_sheet.io.Series, optional
+        Collects the state of every accepted load step (``series.write``
+        writes them as a ParaView series); nothing is kept when None.
 
     Returns
     -------
@@ -310,6 +313,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     hmax = check_range("hmax", hmax, 0, None, lo_open=True)
     if not isinstance(symmetric, (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {symmetric!r}")
+    if series is not None and not callable(getattr(series, "on_step", None)):
+        raise ParameterError(f"series must be a skfem_sheet.io.Series, got {series!r}")
     ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric, refine=refine)
     if ndofs > MAX_DOFS:
         what = f"hmax={hmax:g}" + (f" with refine={refine}" if refine else "")
@@ -342,7 +347,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     try:
         out = follow_path(problem, path, sheet.curvature, linear,
                           newton_options=newton_options, step_options=step_options,
-                          stats=stats, progress=report)
+                          stats=stats, progress=report,
+                          on_step=None if series is None else series.on_step)
     finally:
         if bar is not None:
             bar.close()

@@ -117,3 +117,104 @@ def test_fold_curve_bad_input_is_one_line_exit_2(capsys):
     assert "curvature" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert main(["fold-curve", "--lengths", "2:1", "--quiet"]) == 2
     assert "lengths" in capsys.readouterr().err
+
+
+# -- CLI parity with the API: --version, --full-sheet, the solver list, --si ------------------
+def test_version_flag():
+    from skfem_sheet import __version__
+
+    p = run("--version")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == f"skfem-sheet {__version__}"
+
+
+def test_full_sheet_solves_the_whole_sheet(tmp_path):
+    """--full-sheet is symmetric=False: about twice the unknowns, the same (symmetric)
+    equilibrium as the half solve."""
+    half, full = tmp_path / "half.json", tmp_path / "full.json"
+    common = ["solve", "--length", "0.4", "--curvature", "1", "--hmax", "0.3", "--quiet"]
+    assert main([*common, "--json", str(half)]) == 0
+    assert main([*common, "--full-sheet", "--json", str(full)]) == 0
+    h, f = json.loads(half.read_text()), json.loads(full.read_text())
+    assert h["symmetric"] is True and f["symmetric"] is False
+    assert 1.6 * h["dofs"] < f["dofs"] < 2.2 * h["dofs"]
+    assert abs(f["deflection"] - h["deflection"]) < 1e-6
+    api = solve(Sheet(length=0.4, curvature=1.0), hmax=0.3, symmetric=False)
+    assert api.dofs == f["dofs"] and abs(api.deflection - f["deflection"]) < 1e-12
+
+
+def _subparsers(parser):
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield name, sub
+                yield from ((f"{name} {n}", s) for n, s in _subparsers(sub))
+
+
+def test_every_solver_option_lists_every_solver():
+    """Each --solver help text names every back-end of the one list linalg.SOLVERS."""
+    from skfem_sheet.cli import build_parser
+    from skfem_sheet.linalg import SOLVERS
+
+    seen = []
+    for name, sub in _subparsers(build_parser()):
+        for action in sub._actions:
+            if "--solver" in action.option_strings:
+                seen.append(name)
+                for s in SOLVERS:
+                    assert s in action.help, (name, s, action.help)
+    assert {"solve", "demo", "sweep", "bistability", "fold-map"} <= set(seen)
+    assert "pyamg" in SOLVERS
+
+
+SI = dict(base_width=0.05, length=0.02, tip_width=0.05, thickness=1.5e-3, radius=0.05,
+          youngs_modulus=4.5e5, density=1250.0)
+
+
+def test_si_input_maps_through_from_si_and_echoes(tmp_path, capsys):
+    out = tmp_path / "si.json"
+    text = ",".join(f"{k}={v!r}" for k, v in SI.items())
+    assert main(["solve", "--si", text, "--hmax", "0.3", "--json", str(out), "--quiet"]) == 0
+    expect = Sheet.from_si(**SI)
+    printed = capsys.readouterr().out
+    assert "SI input -> L/a = 0.4, b/a = 1, a/R = 1, h/a = 0.03" in printed
+    assert f"E/(rho g a) = {expect.modulus:.6g}" in printed
+    params = json.loads(out.read_text())["params"]
+    for k, v in expect.to_dict().items():
+        assert params[k] == v, k
+    # gravity is optional (9.81) and changes the modulus as 1/g
+    assert main(["solve", "--si", text + ",gravity=1.635", "--hmax", "0.3", "--json", str(out),
+                 "--quiet"]) == 0
+    assert json.loads(out.read_text())["params"]["modulus"] == \
+        Sheet.from_si(**SI, gravity=1.635).modulus
+
+
+SI_TEXT = ",".join(f"{k}={v!r}" for k, v in SI.items())
+BAD_SI = [
+    (SI_TEXT.replace("density=1250.0,", "").replace(",density=1250.0", ""), "density"),
+    (SI_TEXT + ",colour=3", "colour"),
+    (SI_TEXT + ",length=0.03", "length"),
+    (SI_TEXT.replace("radius=0.05", "radius=-1"), "radius"),
+    (SI_TEXT.replace("radius=0.05", "radius=nan"), "radius"),
+    (SI_TEXT.replace("density=1250.0", "density=inf"), "density"),
+    (SI_TEXT.replace("density=1250.0", "density=heavy"), "density"),
+    (SI_TEXT.replace("tip_width=0.05", "tip_width=0.06"), "tip_width"),
+    ("base_width", "--si"),
+]
+
+
+@pytest.mark.parametrize("text, name", BAD_SI)
+def test_bad_si_one_line_exit_2(text, name, capsys):
+    assert main(["solve", "--si", text, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert name in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_si_excludes_the_dimensionless_flags(capsys):
+    assert main(["solve", "--si", SI_TEXT, "--tip-width", "0.5", "--quiet"]) == 2
+    assert "--tip-width" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # argparse: --length and --si are exclusive
+        main(["solve", "--si", SI_TEXT, "--length", "1"])
+    assert "not allowed with" in capsys.readouterr().err

@@ -28,6 +28,7 @@ import argparse
 import sys
 
 from ..params import ParameterError
+from ..version import __version__
 from . import bistability, demo, figure, fold_curve, fold_map, rom, solve, sweep
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -44,6 +45,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """The ``skfem-sheet`` parser with every command of :data:`COMMANDS`."""
     parser = _Parser(prog="skfem-sheet", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--version", action="version", version=f"skfem-sheet {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for command in COMMANDS:

@@ -12,6 +12,7 @@ from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
 from ..io import check_writable, write_json
 from ..params import ParameterError
 from .ranges import parse_range
+from .solve import solver_help
 
 __all__ = ["register", "run"]
 
@@ -31,7 +32,7 @@ def register(subparsers) -> None:
     p.add_argument("--modulus", type=float, default=735.0, help="E/(rho g a) (default 735)")
     p.add_argument("--hmax", type=float, default=0.1, help="mesh size (default 0.1)")
     p.add_argument("--layers", type=int, default=None)
-    p.add_argument("--solver", default="auto")
+    p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--start-length", type=float, default=1.2,
                    help="L/a of the first solve, below the standout length (default 1.2)")
     p.add_argument("--lengths", default="0.6:2.4",

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..studies.foldmap import critical_tip_width, fold_map, map_points
 from .ranges import parse_range, parse_values
+from .solve import solver_help
 
 __all__ = ["register", "run"]
 
@@ -27,7 +28,7 @@ def register(subparsers) -> None:
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
     p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
-    p.add_argument("--solver", default="auto")
+    p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--table", default=None, help="results .csv or .parquet (resumable)")
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")

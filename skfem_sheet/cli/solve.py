@@ -1,22 +1,62 @@
-"""``skfem-sheet solve``: one sheet along one load path (also the code path of ``demo``)."""
+"""``skfem-sheet solve``: one sheet along one load path (also the code path of ``demo``).
+
+The sheet is given either in its dimensionless parameters (``--length``,
+``--tip-width``, ...) or in SI units with one flag, ``--si
+base_width=0.05,length=0.065,tip_width=0.05,thickness=1.5875e-3,radius=0.02,
+youngs_modulus=4.5e5,density=1250`` (``gravity`` optional, default 9.81;
+metres, Pa, kg/m^3, m/s^2; ``radius=inf`` for a flat clamp), mapped through
+``Sheet.from_si``; the dimensionless parameters it
+gives are printed.
+"""
 from __future__ import annotations
 
-from ..io import check_writable
-from ..params import Sheet
+import inspect
+import math
+
+from ..io import Series, check_directory, check_writable
+from ..linalg import SOLVERS
+from ..params import ParameterError, Sheet
 from ..plot import plot_sheet
 from ..solve import solve
 
-__all__ = ["register", "run", "add_sheet_args", "add_solve_args"]
+__all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
+           "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
+
+#: The defaults of the dimensionless sheet flags (``None`` in the parser, so
+#: that ``--si`` can tell which were given).
+SHEET_DEFAULTS = {"tip_width": 1.0, "curvature": 0.0, "thickness": 0.03, "modulus": 735.0}
+
+#: The keys of ``--si``: the parameters of :meth:`Sheet.from_si`, in order.
+SI_NAMES = tuple(inspect.signature(Sheet.from_si).parameters)
+
+_SI_REQUIRED = tuple(n for n, p in inspect.signature(Sheet.from_si).parameters.items()
+                     if p.default is inspect.Parameter.empty)
+
+
+def solver_help(plural: bool = False) -> str:
+    """Help text of ``--solver``: every name of :data:`skfem_sheet.linalg.SOLVERS`."""
+    return (f"linear solver{'s (comma list)' if plural else ''}: {', '.join(SOLVERS)} "
+            f"(default auto: pardiso if installed, else superlu)")
 
 
 def add_sheet_args(p, length=None) -> None:
-    """The sheet's parameters (``--length`` required unless ``length`` is given)."""
-    p.add_argument("--length", type=float, required=length is None, default=length,
-                   help="L/a, sheet length in base widths")
-    p.add_argument("--tip-width", type=float, default=1.0, help="b/a (1 rectangle, 0 triangle)")
-    p.add_argument("--curvature", type=float, default=0.0, help="a/R, clamp curvature")
-    p.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
-    p.add_argument("--modulus", type=float, default=735.0, help="E/(rho g a) (default 735)")
+    """The sheet's parameters (``--length`` or ``--si`` required unless ``length`` is given)."""
+    if length is None:
+        g = p.add_mutually_exclusive_group(required=True)
+        g.add_argument("--length", type=float, help="L/a, sheet length in base widths")
+        g.add_argument("--si", default=None, metavar="NAME=VALUE,...",
+                       help="the sheet in SI units instead: " + ", ".join(
+                           f"{n}=" for n in SI_NAMES) + " (metres, Pa, kg/m^3, m/s^2; "
+                       "gravity optional, default 9.81; radius=inf: flat clamp)")
+    else:
+        p.add_argument("--length", type=float, default=length,
+                       help=f"L/a, sheet length in base widths (default {length:g})")
+        p.set_defaults(si=None)
+    p.add_argument("--tip-width", type=float, default=None,
+                   help="b/a (1 rectangle, 0 triangle; default 1)")
+    p.add_argument("--curvature", type=float, default=None, help="a/R, clamp curvature (default 0)")
+    p.add_argument("--thickness", type=float, default=None, help="h/a (default 0.03)")
+    p.add_argument("--modulus", type=float, default=None, help="E/(rho g a) (default 735)")
 
 
 def add_solve_args(p, hmax=0.03) -> None:
@@ -27,43 +67,113 @@ def add_solve_args(p, hmax=0.03) -> None:
     p.add_argument("--layers", type=int, default=None, help="element layers through the thickness")
     p.add_argument("--refine", type=int, default=0,
                    help="nested refinement: halve every edge this many times (0-4, default 0)")
-    p.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, superlu")
+    p.add_argument("--full-sheet", action="store_true",
+                   help="solve the whole sheet (admits asymmetric shapes) instead of the "
+                        "mirror-symmetric half")
+    p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--json", default=None, help="write a JSON summary here")
     p.add_argument("--vtu", default=None, help="write the deformed sheet (VTU, ParaView) here")
     p.add_argument("--png", default=None, help="write a picture of the deformed sheet here")
+    p.add_argument("--series", default=None, metavar="DIR",
+                   help="write every load step as a ParaView time series: DIR/<path>.pvd "
+                        "and DIR/<path>/<path>_NNNN.vtu (time: the load parameter)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def register(subparsers) -> None:
     """Add the ``solve`` command."""
-    p = subparsers.add_parser("solve", help="solve one sheet along one load path")
+    p = subparsers.add_parser("solve", help="solve one sheet along one load path",
+                              description=__doc__.split("\n\n")[1].replace("``", ""))
     add_sheet_args(p)
     add_solve_args(p)
     p.set_defaults(run=run)
 
 
+def parse_si(text) -> dict:
+    """Parse ``--si`` text, ``name=value,...``, into the arguments of :meth:`Sheet.from_si`.
+
+    Raises ``ParameterError`` naming ``--si`` (and the key) on unknown, repeated,
+    missing or non-numeric entries.
+
+    Examples
+    --------
+    >>> parse_si("base_width=0.05, length=0.065, tip_width=0.05, thickness=1.5875e-3, "
+    ...          "radius=inf, youngs_modulus=4.5e5, density=1250")["radius"]
+    inf
+    """
+    out = {}
+    for item in str(text).split(","):
+        item = item.strip()
+        if not item:
+            continue
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep:
+            raise ParameterError(f"--si must be name=value,... with names from "
+                                 f"{', '.join(SI_NAMES)}, got {item!r}")
+        if key not in SI_NAMES:
+            raise ParameterError(f"--si {key!r} is not one of {', '.join(SI_NAMES)}")
+        if key in out:
+            raise ParameterError(f"--si {key} is given twice")
+        try:
+            x = float(value)
+        except ValueError:
+            raise ParameterError(f"--si {key} must be a number, got {value.strip()!r}") from None
+        if math.isnan(x) or (math.isinf(x) and key != "radius"):
+            raise ParameterError(f"--si {key} must be finite, got {value.strip()!r}")
+        out[key] = x
+    missing = [n for n in _SI_REQUIRED if n not in out]
+    if missing:
+        raise ParameterError(f"--si needs {', '.join(missing)} (all of "
+                             f"{', '.join(_SI_REQUIRED)}; gravity optional)")
+    return out
+
+
+def sheet_from_args(args) -> Sheet:
+    """The :class:`Sheet` of the parsed sheet flags (or of ``--si``)."""
+    given = {k: getattr(args, k) for k in SHEET_DEFAULTS if getattr(args, k) is not None}
+    if getattr(args, "si", None) is not None:
+        if given:
+            flags = ", ".join("--" + k.replace("_", "-") for k in given)
+            raise ParameterError(f"--si cannot be combined with {flags} (give every quantity "
+                                 f"in --si, in SI units)")
+        sheet = Sheet.from_si(**parse_si(args.si))
+        print(f"SI input -> L/a = {sheet.length:.6g}, b/a = {sheet.tip_width:.6g}, "
+              f"a/R = {sheet.curvature:.6g}, h/a = {sheet.thickness:.6g}, "
+              f"E/(rho g a) = {sheet.modulus:.6g}")
+        return sheet
+    return Sheet(length=args.length, **{**SHEET_DEFAULTS, **given})
+
+
 def run(args) -> int:
     """Solve, write the files asked for, print the result; 0 if converged, else 1."""
-    sheet = Sheet(length=args.length, tip_width=args.tip_width, curvature=args.curvature,
-                  thickness=args.thickness, modulus=args.modulus)
+    sheet = sheet_from_args(args)
     for name, suffix in (("json", ".json"), ("vtu", ".vtu"), ("png", ".png")):
         if getattr(args, name):
             check_writable(f"--{name}", getattr(args, name), [suffix])
+    series = None
+    if args.series:
+        check_directory("--series", args.series)
+        series = Series()
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
-                   refine=args.refine, solver=args.solver, on_failure="return",
-                   progress=not args.quiet)
+                   refine=args.refine, solver=args.solver, symmetric=not args.full_sheet,
+                   on_failure="return", progress=not args.quiet, series=series)
     if args.json:
         result.write(args.json)
     if args.vtu:
         result.write(args.vtu)
     if args.png:
         plot_sheet(result, args.png)
+    pvd = series.write(args.series, result.path) if series is not None and len(series) else None
     status = "converged" if result.converged else f"NOT converged: {result.message}"
     print(f"tip deflection d/a = {result.deflection:.6f}  ({status})")
-    print(f"  {result.path}, {result.dofs} dofs, {result.newton_iterations} Newton iterations "
+    print(f"  {result.path}, {result.dofs} dofs{'' if result.symmetric else ' (whole sheet)'}, "
+          f"{result.newton_iterations} Newton iterations "
           f"in {result.load_steps} load steps, {result.wall_time_s:.1f} s "
           f"(linear solver {result.linear_solve_s:.1f} s, assembly {result.assembly_s:.1f} s)")
     for f in (args.json, args.vtu, args.png):
         if f:
             print(f"  wrote {f}")
+    if pvd:
+        print(f"  wrote {pvd} ({len(series)} steps)")
     return 0 if result.converged else 1

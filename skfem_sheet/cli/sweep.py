@@ -19,6 +19,7 @@ from ..io import check_writable
 from ..params import ParameterError
 from ..studies.sweep import check_point, grid, journal_path, point_key, read_journal, run_sweep
 from .ranges import parse_values
+from .solve import solver_help
 
 __all__ = ["register", "run"]
 
@@ -47,7 +48,7 @@ def register(subparsers) -> None:
                    help="nested refinements of each mesh, e.g. 0,1 (0-4, default 0)")
     p.add_argument("--symmetric", default="yes", choices=tuple(_SYMMETRIC),
                    help="solve the symmetric half (yes, default), the whole sheet (no), or both")
-    p.add_argument("--solver", default="auto", help="linear solvers: auto, pardiso, superlu")
+    p.add_argument("--solver", default="auto", help=solver_help(plural=True))
     p.add_argument("--table", required=True, help="results table, .csv or .parquet")
     p.add_argument("--workers", type=int, default=None,
                    help="local worker processes (default: number of CPUs; 1: no pool)")
