@@ -38,11 +38,11 @@ zero pressure block.  Back-ends:
     near-null space, energy-minimising prolongation) and ``M_p / mu``, the
     pressure mass matrix over the shear modulus, stands in for the Schur
     complement.  No factorisation of the whole system: for meshes too big to
-    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`), and converges 2-5x faster on
-    a drooped sheet when ``factorize`` gets the state (the near-null space is
-    then that of the deformed sheet).  About 4-5x slower than PARDISO on this
-    thin sheet at hmax 0.08 (see ``benchmarks/linear_backends.py``); no
-    inertia.
+    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`),
+    and converges 2-5x faster on a drooped sheet when ``factorize`` gets the
+    state (the near-null space is then that of the deformed sheet).  About
+    4-5x slower than PARDISO on this thin sheet at hmax 0.08 (see
+    ``benchmarks/linear_backends.py``); no inertia.
 ``"auto"``
     pardiso when importable, else superlu.
 """
