@@ -208,8 +208,9 @@ def _ratios(rows, variants):
 
 
 def table(rows, variants):
+    wv = max(8, *(len(v) for v in variants))
     head = (f"{'group':9s} {'L/a':>6s} {'b/a':>6s} {'a/R':>6s} {'path':15s} "
-            + (f"{'variant':8s} " if len(variants) > 1 else "")
+            + (f"{'variant':{wv}s} " if len(variants) > 1 else "")
             + f"{'dofs':>6s} {'d/a':>9s} {'branch':>9s} {'stable':>6s} {'newton':>6s} "
             f"{'fact':>5s} {'backsub':>7s} {'wall s':>7s} {'lin %':>5s} {'peak GB':>7s}  status")
     lines = [head, "-" * len(head)]
@@ -220,7 +221,7 @@ def table(rows, variants):
         share = r.get("linear_share")
         lines.append(
             f"{r['group']:9s} {p['length']:6.3f} {p['tip_width']:6.3f} {p['curvature']:6.3f} "
-            f"{r['path']:15s} " + (f"{r['variant']:8s} " if len(variants) > 1 else "")
+            f"{r['path']:15s} " + (f"{r['variant']:{wv}s} " if len(variants) > 1 else "")
             + f"{fmt(r.get('dofs'), '6d'):>6s} {fmt(r.get('deflection'), '9.5f'):>9s} "
             f"{fmt(branch, 's'):>9s} {fmt(r.get('stable'), '', 'unknown'):>6s} "
             f"{fmt(r.get('newton_iterations'), '6d'):>6s} {fmt(r.get('factorizations'), '5d'):>5s} "
