@@ -375,8 +375,13 @@ class PardisoSolver(_Timed):
     process and with any number of threads (threaded PARDISO otherwise sums
     supernode updates in an order that depends on thread timing, and a
     pseudo-transient snap amplifies that round-off into different Newton
-    iteration counts and end states).  Measured cost: see
-    ``benchmarks/results/solve_sample_hmax0.1.txt``.
+    iteration counts and end states).  ``iparm(34)`` alone switches the mode
+    on (``MKL_CBWR`` is not needed; set, it also does).  Cost: none measured --
+    on the shared 2-core machine (load 16-20) full solves of the hmax 0.06
+    rectangle took 0.67x the wall time of the free-running threads (median of
+    four alternating pairs, ``benchmarks/results/
+    solve_sample_reproducible_hmax0.06.txt``); with one thread the two are
+    equally fast.
 
     Parameters
     ----------
