@@ -177,7 +177,8 @@ def summarise(rows):
         median_newton_iterations=med(newton),
         max_newton_iterations=max(newton) if newton else None,
         median_wall_s=med(wall), max_wall_s=max(wall) if wall else None,
-        median_linear_share=med(share), max_peak_rss_gb=max(mem) if mem else None)
+        median_linear_share=med(share), max_peak_rss_gb=max(mem) if mem else None,
+        perturbed_factorizations=sum(r.get("perturbed_factorizations") or 0 for r in done))
 
 
 def _ratios(rows, variants):
@@ -242,7 +243,8 @@ def _summary_lines(name, s):
             f"{fmt(s['max_newton_iterations'], 'g')}; wall median {fmt(s['median_wall_s'], '.1f')} "
             f"s, max {fmt(s['max_wall_s'], '.1f')} s; linear-solver share median "
             f"{fmt(share, '.0f')}"
-            f"%; peak memory max {fmt(s['max_peak_rss_gb'], '.3f')} GB"]
+            f"%; peak memory max {fmt(s['max_peak_rss_gb'], '.3f')} GB; factorisations with "
+            f"perturbed pivots {s['perturbed_factorizations']}"]
 
 
 def _parse_variant(text):
