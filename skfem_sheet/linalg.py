@@ -9,6 +9,7 @@ All back-ends share one small interface::
                                   # w (optional): the state K was formed at
     x = solver.solve(b)      # b: (n,) or (n, k)
     solver.inertia()         # (n_positive, n_negative, n_zero) of K, or None
+    solver.counts            # SolverCounts: factorizations, back_substitutions, ...
 
 The Taylor-Hood tangent ``[[A, B^T], [B, 0]]`` is symmetric indefinite with a
 zero pressure block.  Back-ends:
@@ -17,8 +18,12 @@ zero pressure block.  Back-ends:
     Intel MKL PARDISO through pypardiso's low-level handle, in symmetric
     indefinite mode (matrix type -2, upper triangle, Bunch-Kaufman pivoting with
     weighted matching and scaling).  The symbolic analysis (METIS ordering) is
-    done once and reused while the sparsity pattern stays the same.  Needs the
-    optional ``fast`` extra (``pip install .[fast]``).
+    done once and reused while the sparsity pattern stays the same.  The
+    number of perturbed pivots is read after every factorisation; when there
+    are any, the inertia is reported unknown.  Reproducible by default (the
+    same bits in every process and for any thread count; ``reproducible=False``
+    for MKL's free-running threads).  Needs the optional ``fast`` extra
+    (``pip install .[fast]``).
 ``"superlu"``
     scipy's SuperLU configured for this structure: a symmetric minimum-degree
     ordering on ``A + A^T`` (computed once per pattern, adjusted so that no
@@ -33,11 +38,11 @@ zero pressure block.  Back-ends:
     near-null space, energy-minimising prolongation) and ``M_p / mu``, the
     pressure mass matrix over the shear modulus, stands in for the Schur
     complement.  No factorisation of the whole system: for meshes too big to
-    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`), and converges 2-5x faster on
-    a drooped sheet when ``factorize`` gets the state (the near-null space is
-    then that of the deformed sheet).  About 4-5x slower than PARDISO on this
-    thin sheet at hmax 0.08 (see ``benchmarks/linear_backends.py``); no
-    inertia.
+    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`),
+    and converges 2-5x faster on a drooped sheet when ``factorize`` gets the
+    state (the near-null space is then that of the deformed sheet).  About
+    4-5x slower than PARDISO on this thin sheet at hmax 0.08 (see
+    ``benchmarks/linear_backends.py``); no inertia.
 ``"auto"``
     pardiso when importable, else superlu.
 """
@@ -46,6 +51,7 @@ from __future__ import annotations
 import importlib.metadata as md
 import os
 import time
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -56,7 +62,7 @@ from .params import ParameterError
 
 __all__ = ["make_linear_solver", "available_solvers", "SOLVERS", "LinearSolverError",
            "PardisoSolver", "SuperLUSolver", "PyAMGSolver", "SaddlePointLayout",
-           "near_null_space"]
+           "SolverCounts", "near_null_space"]
 
 SOLVERS = ("auto", "pardiso", "superlu", "pyamg")
 
@@ -128,7 +134,9 @@ def make_linear_solver(name: str = "auto", **options):
     name : {"auto", "pardiso", "superlu", "pyamg"}
     **options
         Passed to the back-end's constructor (e.g. ``rtol`` of
-        :class:`PyAMGSolver`).
+        :class:`PyAMGSolver`, ``reproducible`` or ``pivot_perturbation`` of
+        :class:`PardisoSolver`; every back-end takes ``reproducible``, the
+        serial ones are reproducible whatever it says).
 
     Examples
     --------
@@ -154,6 +162,39 @@ def make_linear_solver(name: str = "auto", **options):
     return SuperLUSolver(**options)
 
 
+@dataclass(frozen=True)
+class SolverCounts:
+    """How much work a linear-solver back-end has done (see ``solver.counts``).
+
+    Attributes
+    ----------
+    factorizations : int
+        Numerical factorisations (pyamg: preconditioner set-ups).
+    back_substitutions : int
+        Right-hand sides solved: a ``solve`` with ``b`` of shape ``(n, k)``
+        counts ``k`` (pyamg: Krylov solves).
+    solves : int
+        Calls of ``solve``.
+    perturbed_factorizations : int
+        Factorisations in which PARDISO perturbed at least one pivot (their
+        inertia is unknown); 0 for the other back-ends.
+
+    Examples
+    --------
+    >>> SolverCounts(3, 4, 4, 0).as_dict()["back_substitutions"]
+    4
+    """
+
+    factorizations: int = 0
+    back_substitutions: int = 0
+    solves: int = 0
+    perturbed_factorizations: int = 0
+
+    def as_dict(self) -> dict:
+        """The counts as a plain dict (for JSON records)."""
+        return asdict(self)
+
+
 class _Timed:
     name = "?"
     #: Whether :meth:`attach` needs a :class:`SaddlePointLayout` before ``factorize``.
@@ -164,6 +205,19 @@ class _Timed:
         self.solve_time = 0.0
         self.n_factorizations = 0
         self.n_solves = 0
+        self.n_back_substitutions = 0
+        self.n_perturbed_factorizations = 0
+
+    @property
+    def counts(self) -> SolverCounts:
+        """Factorisations, back-substitutions, solves and factorisations with
+        perturbed pivots so far (a :class:`SolverCounts`)."""
+        return SolverCounts(self.n_factorizations, self.n_back_substitutions,
+                            self.n_solves, self.n_perturbed_factorizations)
+
+    def _count_solve(self, b):
+        self.n_solves += 1
+        self.n_back_substitutions += 1 if np.ndim(b) == 1 else int(np.shape(b)[1])
 
     def attach(self, layout):
         """Saddle-point structure hook (unused by the direct solvers)."""
@@ -196,8 +250,9 @@ class SuperLUSolver(_Timed):
 
     name = "superlu"
 
-    def __init__(self):
+    def __init__(self, reproducible=True):
         super().__init__()
+        self.reproducible = True   # serial: the same bits every time, whatever asked
         self._pattern = None
         self._lu = None
         self._inertia = None
@@ -255,7 +310,7 @@ class SuperLUSolver(_Timed):
         x = np.empty_like(b)
         x[order] = self._lu.solve(np.ascontiguousarray(b[order]))
         self.solve_time += time.perf_counter() - t
-        self.n_solves += 1
+        self._count_solve(b)
         return x
 
     def inertia(self):
@@ -279,43 +334,117 @@ def _remember_mkl(ps):
         os.environ["PYPARDISO_MKL_RT"] = name
 
 
+def _mkl_threads(ps):
+    """MKL's thread count in this process (``MKL_Get_Max_Threads``), at least 1.
+
+    The value only sets how PARDISO's reproducible mode partitions the work:
+    the results are the same bits for any value and any actual thread count
+    (checked with 1, 2 and 3 threads on the sheet tangent).
+    """
+    try:
+        return max(1, int(ps.libmkl.MKL_Get_Max_Threads()))
+    except (AttributeError, OSError):  # an MKL without the service function
+        return max(1, os.cpu_count() or 1)
+
+
 class PardisoSolver(_Timed):
     """MKL PARDISO, symmetric indefinite, symbolic analysis reused.
 
-    :meth:`inertia` reads PARDISO's own counts of positive and negative
-    eigenvalues, ``iparm(22)`` and ``iparm(23)``, after the factorisation
-    (the weighted matching and symmetric scaling are congruences, so they
-    keep the inertia).  ``perturbed_pivots`` (``iparm(14)``) says how many
-    tiny pivots were perturbed to ``1e-8`` (then the counts are those of a
-    nearby matrix: near a fold a zero eigenvalue may be counted on either
-    side).
+    The ``iparm`` array is given in full (``iparm(1) = 1``; 1-based numbers as
+    in the MKL manual, ``iparm[i - 1]`` in pypardiso's array): nested
+    dissection (METIS) ordering, Bunch-Kaufman pivoting, two steps of
+    iterative refinement, and, for the zero pressure block of the
+    saddle-point system, symmetric scaling (``iparm(11)``) with weighted
+    matching (``iparm(13)``), which move large entries next to the diagonal
+    so that 2x2 pivots can take them.
+
+    :meth:`inertia` reads PARDISO's counts of positive and negative pivots,
+    ``iparm(22)`` and ``iparm(23)`` (scaling and matching are congruences, so
+    they keep the inertia), *unless* the factorisation perturbed pivots: the
+    count of pivots smaller than ``10**-pivot_perturbation`` times the
+    matrix's scale that were replaced by that value is ``iparm(14)``, read
+    after every factorisation into :attr:`perturbed_pivots`.  The pivot
+    counts are then those of a nearby matrix (a zero eigenvalue, as at a
+    fold, can be counted on either side), so :meth:`inertia` returns None and
+    the stability of the state is unknown; the untrusted counts stay in
+    :attr:`pivot_inertia`.
+
+    With ``reproducible`` (the default) PARDISO runs in conditional numerical
+    reproducibility mode (``iparm(34)`` > 0, the number of OpenMP threads it
+    partitions the work for): the same matrix gives the same bits in every
+    process and with any number of threads (threaded PARDISO otherwise sums
+    supernode updates in an order that depends on thread timing, and a
+    pseudo-transient snap amplifies that round-off into different Newton
+    iteration counts and end states).  ``iparm(34)`` alone switches the mode
+    on (``MKL_CBWR`` is not needed; set, it also does).  Cost: none measured --
+    on the shared 2-core machine (load 16-20) full solves of the hmax 0.06
+    rectangle took 0.67x the wall time of the free-running threads (median of
+    four alternating pairs, ``benchmarks/results/
+    solve_sample_reproducible_hmax0.06.txt``); with one thread the two are
+    equally fast.
+
+    Parameters
+    ----------
+    reproducible : bool
+        Conditional numerical reproducibility (``iparm(34)``), default True.
+    scaling, matching : bool
+        Symmetric scaling (``iparm(11)``) and weighted matching
+        (``iparm(13)``), default True (both are needed for the zero block).
+    pivot_perturbation : int
+        ``iparm(10)``: pivots below ``10**-pivot_perturbation`` (relative) are
+        perturbed, 1 to 20 (default 8, MKL's for symmetric indefinite
+        matrices).
+
+    Attributes
+    ----------
+    perturbed_pivots : int
+        ``iparm(14)`` of the last factorisation.
+    pivot_inertia : tuple or None
+        PARDISO's ``(n_positive, n_negative, rest)`` of the last
+        factorisation, trusted or not.
+    counts : SolverCounts
+        Factorisations, back-substitutions, factorisations with perturbed
+        pivots.
     """
 
     name = "pardiso"
 
-    def __init__(self):
+    def __init__(self, reproducible=True, scaling=True, matching=True, pivot_perturbation=8):
         super().__init__()
+        for nm, v in (("reproducible", reproducible), ("scaling", scaling),
+                      ("matching", matching)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise ParameterError(f"{nm} must be True or False, got {v!r}")
+        if (isinstance(pivot_perturbation, bool)
+                or not isinstance(pivot_perturbation, (int, np.integer))
+                or not 1 <= pivot_perturbation <= 20):
+            raise ParameterError("pivot_perturbation must be an integer in [1, 20], "
+                                 f"got {pivot_perturbation!r}")
         _locate_mkl()
         from pypardiso import PyPardisoSolver  # optional dependency (the fast extra)
 
         self._ps = PyPardisoSolver(mtype=-2)
         _remember_mkl(self._ps)
-        ip = self._ps.iparm
+        self.reproducible = bool(reproducible)
+        ip = self._ps.iparm   # ip[i - 1] is the manual's iparm(i)
         ip[:] = 0
-        ip[0] = 1    # iparm(1): use the values below
-        ip[1] = 2    # nested dissection (METIS)
+        ip[0] = 1    # iparm(1): all values are given here, no defaults
+        ip[1] = 2    # iparm(2): nested dissection (METIS); not 3, which rules out CNR
         ip[3] = 0
-        ip[7] = 2    # iterative refinement steps
-        ip[9] = 8    # pivot perturbation 1e-8
-        ip[10] = 1   # symmetric scaling
-        ip[12] = 1   # weighted matching (with scaling: robust for saddle points)
-        ip[20] = 1   # Bunch-Kaufman pivoting
-        ip[23] = 0
-        ip[34] = 0   # one-based indices (pypardiso adds 1)
+        ip[7] = 2    # iparm(8): iterative refinement steps
+        ip[9] = int(pivot_perturbation)   # iparm(10): perturb pivots below 10^-value
+        ip[10] = int(bool(scaling))       # iparm(11): symmetric scaling
+        ip[12] = int(bool(matching))      # iparm(13): weighted matching
+        ip[20] = 1   # iparm(21): Bunch-Kaufman pivoting
+        ip[23] = 0   # iparm(24): classic factorisation (CNR is defined for it)
+        ip[33] = _mkl_threads(self._ps) if reproducible else 0   # iparm(34): CNR
+        ip[34] = 0   # iparm(35): one-based indices (pypardiso adds 1)
         self._pattern = None
         self._U = None
         self._inertia = None
+        self.pivot_inertia = None
         self.perturbed_pivots = 0
+        self.refinement_steps = 0
 
     def _upper(self, K):
         if (self._pattern is None or self._pattern[0].shape != K.indices.shape
@@ -338,13 +467,15 @@ class PardisoSolver(_Timed):
         return self._ps._call_pardiso(A, b)
 
     def factorize(self, K, state=None):
-        """Numerical factorisation of ``K`` (``state`` is ignored)."""
+        """Numerical factorisation of ``K`` (``state`` is ignored); reads the
+        inertia and the number of perturbed pivots."""
         from pypardiso.pardiso_wrapper import PyPardisoError  # optional dependency
 
         t = time.perf_counter()
         U = self._upper(K)
         b = np.zeros((K.shape[0], 1))
         self._inertia = None
+        self.pivot_inertia = None
         try:
             if not self._analysed:
                 self._call(11, U, b)
@@ -355,9 +486,13 @@ class PardisoSolver(_Timed):
         finally:
             self.factor_time += time.perf_counter() - t
         ip = self._ps.iparm
-        npos, nneg = int(ip[21]), int(ip[22])
-        self._inertia = (npos, nneg, K.shape[0] - npos - nneg)
-        self.perturbed_pivots = int(ip[13])
+        npos, nneg = int(ip[21]), int(ip[22])           # iparm(22), iparm(23)
+        self.pivot_inertia = (npos, nneg, K.shape[0] - npos - nneg)
+        self.perturbed_pivots = int(ip[13])             # iparm(14)
+        if self.perturbed_pivots == 0:
+            self._inertia = self.pivot_inertia
+        else:
+            self.n_perturbed_factorizations += 1
         self._U = U
         self.n_factorizations += 1
 
@@ -365,13 +500,15 @@ class PardisoSolver(_Timed):
         t = time.perf_counter()
         b = np.asarray(b, dtype=float)
         x = self._call(33, self._U, np.asfortranarray(b))
+        self.refinement_steps += int(self._ps.iparm[6])  # iparm(7): steps taken
         self.solve_time += time.perf_counter() - t
-        self.n_solves += 1
+        self._count_solve(b)
         return x.reshape(b.shape)
 
     def inertia(self):
         """``(n_positive, n_negative, n_zero)`` of the last factorised K
-        (PARDISO's ``iparm(22)``, ``iparm(23)``; zero = the rest)."""
+        (PARDISO's ``iparm(22)``, ``iparm(23)``; zero = the rest), or None
+        if that factorisation perturbed pivots (``perturbed_pivots > 0``)."""
         return self._inertia
 
     def __del__(self):
@@ -527,8 +664,9 @@ class PyAMGSolver(_Timed):
     needs_layout = True
 
     def __init__(self, rtol=1e-6, maxiter=200, theta=0.02, reuse=True, rebuild_factor=1.5,
-                 bending_modes=True, max_coarse=300):
+                 bending_modes=True, max_coarse=300, reproducible=True):
         super().__init__()
+        self.reproducible = True   # serial: the same bits every time, whatever asked
         self.rtol = float(rtol)
         self.maxiter = int(maxiter)
         self.theta = float(theta)
@@ -792,5 +930,5 @@ class PyAMGSolver(_Timed):
             dt = time.perf_counter() - t
             self.solve_time += dt
             self.krylov_time += dt
-        self.n_solves += 1
+        self._count_solve(b)
         return x

@@ -38,3 +38,30 @@ def test_tip_deflection_of_a_rigid_drop(problem):
     assert tip_deflection(problem, w) == pytest.approx(0.25, rel=1e-12)
     tip = midline_nodes(problem, problem.length)
     assert np.all(np.diff(problem.nodes[tip, 1]) > 0)
+
+
+class _Perturbed(_Inertia):
+    perturbed_pivots = 2
+
+
+def test_stability_is_unknown_when_pivots_were_perturbed(problem):
+    # a factorisation that perturbed pivots counts those of a nearby matrix:
+    # even counts that would say "stable" are not trusted
+    m = int(np.count_nonzero(problem.free >= problem.nu_dof))
+    assert stability(problem, _Perturbed((problem.n_free - m, m, 0))) == (None, None)
+
+
+def test_stability_unknown_from_a_real_perturbed_factorisation(problem):
+    pytest.importorskip("pypardiso")
+    from skfem_sheet.linalg import make_linear_solver
+
+    K = problem.tangent(np.zeros(problem.ndof))
+    exact = make_linear_solver("pardiso")
+    exact.factorize(K)
+    assert exact.perturbed_pivots == 0 and stability(problem, exact) == (True, 0)
+    # a pivot threshold of 10^-1 (iparm 10 = 1) perturbs the small pivots of
+    # the thin sheet's bending: same matrix, the inertia is no longer trusted
+    coarse = make_linear_solver("pardiso", pivot_perturbation=1)
+    coarse.factorize(K)
+    assert coarse.perturbed_pivots > 0 and coarse.inertia() is None
+    assert stability(problem, coarse) == (None, None)

@@ -14,8 +14,15 @@ def stability(problem, solver):
     number of negative eigenvalues of ``A`` on the incompressible subspace
     ``ker B`` (Sylvester's law of inertia on the null-space decomposition).
     The equilibrium is stable iff ``k = 0`` and no eigenvalue vanishes.
-    Returns ``(None, None)`` if the back-end does not report the inertia.
+
+    Returns ``(None, None)`` -- stability unknown -- if the back-end does not
+    report the inertia, or if its last factorisation perturbed pivots
+    (``solver.perturbed_pivots > 0``, PARDISO's ``iparm(14)``): the pivot
+    counts are then those of a nearby matrix, and an eigenvalue at or near
+    zero (a fold) may have been counted on either side.
     """
+    if getattr(solver, "perturbed_pivots", 0):
+        return None, None
     inertia = getattr(solver, "inertia", None)
     inertia = inertia() if inertia is not None else None
     if inertia is None:

@@ -1,0 +1,381 @@
+"""Speed of full-path solves over a seeded random sample of sheets (issue 16, item 1).
+
+    python benchmarks/solve_sample.py [--hmax 0.03] [--n 12] [--seed 16]
+        [--json out.json] [--txt out.txt] [--no-cases] [--cases-only]
+        [--case rectangle] [--paths curvature-first,gravity-first]
+        [--variant NAME=JSON ...] [--threads N] [--timeout S]
+
+A benchmark that cannot be tuned to: ``--n`` sheets drawn uniformly (seeded)
+from L/a in [1, 2.2], b/a in [0.6, 1], a/R in [1.5, 5] -- inside and near the
+bistable region, where load paths are hardest -- each solved along both load
+paths, plus the four cases of ``benchmarks/solve_speed.py`` (rectangle and
+triangle, L/a = 1.3, a/R = 2.5).  Every solve runs in a fresh Python process,
+so its peak resident memory (VmHWM) is its own and no state carries over.
+
+Per solve: factorisations, back-substitutions, Newton iterations, wall time
+(the Result's), the share of it in the linear solver, peak memory, the tip
+deflection d/a, the branch, stability, snaps.  Summary (top-level keys of the
+JSON, over the random sample): ``median_factorizations``,
+``max_factorizations``, ``median_wall_s``; the same over the four cases and
+over all solves under ``summary_cases`` and ``summary_all``.
+
+``--variant NAME=JSON`` (repeatable) runs every solve once per variant, in
+turn (old, new, old, new, ...: the machine load is shared fairly), with
+``JSON`` passed as options to the linear solver, e.g.
+``--variant new={} --variant old='{"reproducible": false}'``; the summary
+then gives, per variant, the median ratio of its wall and linear-solver time
+to the first variant's over the paired solves.
+
+Timings are only meaningful on an otherwise idle machine: the load average
+at the start is recorded and a warning printed if it is high.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from _common import GB, _peak_rss_bytes, fmt, machine_info, warn_if_busy
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+from skfem_sheet.io import atomic_write, dumps_json  # noqa: E402  (after the path fix)
+
+#: The sampled box (issue 16): L/a, b/a, a/R.
+BOX = dict(length=(1.0, 2.2), tip_width=(0.6, 1.0), curvature=(1.5, 5.0))
+PATHS = ("curvature-first", "gravity-first")
+#: The four cases of benchmarks/solve_speed.py.
+CASES = [("rectangle", dict(length=1.3, tip_width=1.0, curvature=2.5)),
+         ("triangle", dict(length=1.3, tip_width=0.0, curvature=2.5))]
+
+
+def sample_sheets(n, seed):
+    """``n`` sheets (keyword dicts of ``Sheet``) drawn uniformly from :data:`BOX`.
+
+    Examples
+    --------
+    >>> a = sample_sheets(3, 16)
+    >>> a == sample_sheets(3, 16), all(1.0 <= s["length"] <= 2.2 for s in a)
+    (True, True)
+    """
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        out.append({k: round(float(rng.uniform(lo, hi)), 4) for k, (lo, hi) in BOX.items()})
+    return out
+
+
+# ---------------------------------------------------------------------------
+# one solve, in a fresh process
+# ---------------------------------------------------------------------------
+def _child(spec_json, out_path):
+    """Body of the child process: one solve, its record written to ``out_path``."""
+    spec = json.loads(spec_json)
+    rec = dict(spec=spec)
+    try:
+        from skfem_sheet import Sheet, solve
+        from skfem_sheet.linalg import make_linear_solver
+
+        solve_module = sys.modules["skfem_sheet.solve"]
+        made = []
+        options = spec.get("linear_options") or {}
+
+        def recording(name="auto", **kw):
+            # keep the solver object to read its counts (back-substitutions,
+            # perturbed pivots), and pass the variant's options to it
+            s = make_linear_solver(name, **{**options, **kw})
+            made.append(s)
+            return s
+
+        solve_module.make_linear_solver = recording
+        rss0 = _peak_rss_bytes()
+        r = solve(Sheet(**spec["parameters"]), path=spec["path"], hmax=spec["hmax"],
+                  on_failure="return")
+    except Exception as err:  # noqa: BLE001 - recorded as a crash of this solve
+        import traceback
+
+        rec.update(status="crash", error=f"{type(err).__name__}: {err}",
+                   traceback=traceback.format_exc(), peak_rss_gb=_peak_rss_bytes() / GB)
+    else:
+        counts = made[-1].counts.as_dict() if made and hasattr(made[-1], "counts") else {}
+        back = getattr(r, "back_substitutions", None)
+        if back is None:
+            back = counts.get("back_substitutions")
+        wall, lin = float(r.wall_time_s), float(r.linear_solve_s)
+        rec.update(
+            status="converged" if r.converged else "failed", converged=bool(r.converged),
+            message=r.message, dofs=int(r.dofs), solver=r.solver,
+            factorizations=int(r.factorizations), back_substitutions=back,
+            perturbed_factorizations=counts.get("perturbed_factorizations"),
+            newton_iterations=int(r.newton_iterations), load_steps=int(r.load_steps),
+            wall_time_s=wall, linear_solve_s=lin,
+            linear_share=lin / wall if wall > 0 else None,
+            peak_rss_gb=_peak_rss_bytes() / GB, rss_before_solve_gb=rss0 / GB,
+            deflection=float(r.deflection), branch=r.branch, stable=r.stable,
+            snaps=len(r.snaps))
+    atomic_write(out_path, dumps_json(rec))
+
+
+def run_one(spec, threads=None, timeout=None):
+    """Solve ``spec`` in a fresh Python process and return its record."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(x for x in (ROOT, env.get("PYTHONPATH")) if x)
+    if threads:
+        for var in ("MKL_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+            env[var] = str(threads)
+    fd, out = tempfile.mkstemp(prefix="solve_sample_", suffix=".json")
+    os.close(fd)
+    os.unlink(out)
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child",
+                               json.dumps(spec), out], env=env, timeout=timeout,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    except subprocess.TimeoutExpired:
+        return dict(spec=spec, status="timeout", error=f"killed after {timeout:g} s",
+                    process_s=time.perf_counter() - t0)
+    if not os.path.exists(out):
+        tail = " | ".join((proc.stderr or "").strip().splitlines()[-3:])
+        return dict(spec=spec, status="crash", process_s=time.perf_counter() - t0,
+                    error=f"child exited with code {proc.returncode}: {tail}")
+    with open(out) as f:
+        rec = json.load(f)
+    os.unlink(out)
+    rec["process_s"] = time.perf_counter() - t0
+    return rec
+
+
+# ---------------------------------------------------------------------------
+# summary and table
+# ---------------------------------------------------------------------------
+def summarise(rows):
+    """Median / worst factorisations, median wall over ``rows`` (all statuses
+    count: a failed solve's work is work; ``n_failed`` says how many)."""
+    done = [r for r in rows if r.get("factorizations") is not None]
+    fact = [r["factorizations"] for r in done]
+    wall = [r["wall_time_s"] for r in done]
+    back = [r["back_substitutions"] for r in done if r.get("back_substitutions") is not None]
+    newton = [r["newton_iterations"] for r in done]
+    mem = [r["peak_rss_gb"] for r in done if r.get("peak_rss_gb") is not None]
+    share = [r["linear_share"] for r in done if r.get("linear_share") is not None]
+    med = (lambda v: float(statistics.median(v)) if v else None)
+    return dict(
+        n=len(rows), n_failed=sum(r.get("status") != "converged" for r in rows),
+        n_stable_unknown=sum(r.get("status") == "converged" and r.get("stable") is None
+                             for r in rows),
+        median_factorizations=med(fact), max_factorizations=max(fact) if fact else None,
+        median_back_substitutions=med(back), max_back_substitutions=max(back) if back else None,
+        median_newton_iterations=med(newton),
+        max_newton_iterations=max(newton) if newton else None,
+        median_wall_s=med(wall), max_wall_s=max(wall) if wall else None,
+        median_linear_share=med(share), max_peak_rss_gb=max(mem) if mem else None,
+        perturbed_factorizations=sum(r.get("perturbed_factorizations") or 0 for r in done))
+
+
+def _ratios(rows, variants):
+    """Median ratio of each variant's wall / linear time to the first one's."""
+    if len(variants) < 2:
+        return None
+    base = variants[0]
+    by = {}
+    for r in rows:
+        key = (r["group"], json.dumps(r["parameters"], sort_keys=True), r["path"])
+        by.setdefault(key, {})[r["variant"]] = r
+    out = {}
+    for v in variants[1:]:
+        pairs = [(d[v], d[base]) for d in by.values() if v in d and base in d
+                 and d[v].get("wall_time_s") and d[base].get("wall_time_s")]
+        out[v] = dict(
+            pairs=len(pairs),
+            median_wall_ratio=(float(statistics.median(a["wall_time_s"] / b["wall_time_s"]
+                                                       for a, b in pairs)) if pairs else None),
+            median_linear_ratio=(float(statistics.median(
+                a["linear_solve_s"] / b["linear_solve_s"] for a, b in pairs)) if pairs else None),
+            same_iterations=all(a["newton_iterations"] == b["newton_iterations"]
+                                for a, b in pairs),
+            max_rel_deflection_difference=max(
+                (abs(a["deflection"] - b["deflection"]) / max(abs(b["deflection"]), 1e-300)
+                 for a, b in pairs), default=None))
+    return {"baseline": base, **out}
+
+
+def table(rows, variants):
+    wv = max(8, *(len(v) for v in variants))
+    head = (f"{'group':9s} {'L/a':>6s} {'b/a':>6s} {'a/R':>6s} {'path':15s} "
+            + (f"{'variant':{wv}s} " if len(variants) > 1 else "")
+            + f"{'dofs':>6s} {'d/a':>9s} {'branch':>9s} {'stable':>6s} {'newton':>6s} "
+            f"{'fact':>5s} {'backsub':>7s} {'wall s':>7s} {'lin %':>5s} {'peak GB':>7s}  status")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        p = r["parameters"]
+        branch = {"curvature-dominated": "curvature", "gravity-dominated": "gravity"}.get(
+            r.get("branch"), r.get("branch"))
+        share = r.get("linear_share")
+        lines.append(
+            f"{r['group']:9s} {p['length']:6.3f} {p['tip_width']:6.3f} {p['curvature']:6.3f} "
+            f"{r['path']:15s} " + (f"{r['variant']:{wv}s} " if len(variants) > 1 else "")
+            + f"{fmt(r.get('dofs'), '6d'):>6s} {fmt(r.get('deflection'), '9.5f'):>9s} "
+            f"{fmt(branch, 's'):>9s} {fmt(r.get('stable'), '', 'unknown'):>6s} "
+            f"{fmt(r.get('newton_iterations'), '6d'):>6s} {fmt(r.get('factorizations'), '5d'):>5s} "
+            f"{fmt(r.get('back_substitutions'), '7d'):>7s} {fmt(r.get('wall_time_s'), '7.1f'):>7s} "
+            f"{fmt(None if share is None else 100 * share, '5.1f'):>5s} "
+            f"{fmt(r.get('peak_rss_gb'), '7.3f'):>7s}  {r.get('status')}"
+            + ("" if r.get("status") == "converged" else f" {r.get('message') or r.get('error')}"))
+    return lines
+
+
+def _summary_lines(name, s):
+    share = None if s["median_linear_share"] is None else 100 * s["median_linear_share"]
+    return [f"{name}: {s['n']} solves ({s['n_failed']} not converged, {s['n_stable_unknown']} "
+            f"converged with stability unknown); factorisations median "
+            f"{fmt(s['median_factorizations'], 'g')}, max {fmt(s['max_factorizations'], 'g')}; "
+            f"back-substitutions median {fmt(s['median_back_substitutions'], 'g')}; Newton "
+            f"median {fmt(s['median_newton_iterations'], 'g')}, max "
+            f"{fmt(s['max_newton_iterations'], 'g')}; wall median {fmt(s['median_wall_s'], '.1f')} "
+            f"s, max {fmt(s['max_wall_s'], '.1f')} s; linear-solver share median "
+            f"{fmt(share, '.0f')}"
+            f"%; peak memory max {fmt(s['max_peak_rss_gb'], '.3f')} GB; factorisations with "
+            f"perturbed pivots {s['perturbed_factorizations']}"]
+
+
+def _parse_variant(text):
+    name, sep, js = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"--variant must be NAME=JSON, got {text!r}")
+    try:
+        opts = json.loads(js)
+    except json.JSONDecodeError as err:
+        raise argparse.ArgumentTypeError(f"--variant {name}: bad JSON ({err})") from None
+    if not isinstance(opts, dict):
+        raise argparse.ArgumentTypeError(f"--variant {name}: JSON must be an object")
+    return name, opts
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--hmax", type=float, default=0.03, help="mesh size (default 0.03)")
+    ap.add_argument("--n", type=int, default=12, help="random sheets (default 12, at least 12 "
+                    "for the issue's sample)")
+    ap.add_argument("--seed", type=int, default=16, help="seed of the sample (default 16)")
+    ap.add_argument("--paths", default=",".join(PATHS), help="load paths (default both)")
+    ap.add_argument("--no-cases", action="store_true", help="skip the four solve_speed cases")
+    ap.add_argument("--cases-only", action="store_true", help="only the solve_speed cases")
+    ap.add_argument("--case", choices=[c for c, _ in CASES], action="append",
+                    help="only these solve_speed cases (repeatable)")
+    ap.add_argument("--variant", type=_parse_variant, action="append",
+                    help="NAME=JSON linear-solver options; several: run alternately")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="MKL/OpenMP/OpenBLAS threads per solve (default: the libraries' own)")
+    ap.add_argument("--timeout", type=float, default=None, help="seconds per solve")
+    ap.add_argument("--json", default=None, help="write the rows and summary here")
+    ap.add_argument("--txt", default=None, help="write the printed table here")
+    args = ap.parse_args(argv)
+    if args.hmax <= 0:
+        ap.error("--hmax must be positive")
+    if args.n < 0:
+        ap.error("--n must be >= 0")
+    paths = [p for p in args.paths.split(",") if p]
+    for p in paths:
+        if p not in PATHS:
+            ap.error(f"--paths: {p!r} is not one of {', '.join(PATHS)}")
+    variants = args.variant or [("default", {})]
+    names = [v for v, _ in variants]
+    if len(set(names)) != len(names):
+        ap.error("--variant names must differ")
+
+    plan = []
+    if not args.cases_only:
+        plan += [("sample", s) for s in sample_sheets(args.n, args.seed)]
+    if not args.no_cases:
+        plan += [(c, s) for c, s in CASES if not args.case or c in args.case]
+    plan = [(g, s, p) for g, s in plan for p in paths]
+    if not plan:
+        ap.error("nothing to run")
+
+    warn_if_busy()
+    info = machine_info()
+    cmd = "python benchmarks/solve_sample.py " + " ".join(
+        a if " " not in a and "{" not in a else repr(a) for a in (argv or sys.argv[1:]))
+    rows = []
+    t_start = time.perf_counter()
+
+    def save():
+        sample = [r for r in rows if r["group"] == "sample"]
+        cases = [r for r in rows if r["group"] != "sample"]
+        doc = dict(benchmark="solve_sample", command=cmd, machine=info,
+                   settings=dict(hmax=args.hmax, n=args.n, seed=args.seed, paths=paths,
+                                 box=BOX, variants=dict(variants), threads=args.threads),
+                   rows=rows)
+        first = [r for r in sample if r["variant"] == names[0]]
+        doc.update(summarise(first))
+        doc["summary_cases"] = summarise([r for r in cases if r["variant"] == names[0]])
+        doc["summary_all"] = summarise([r for r in rows if r["variant"] == names[0]])
+        if len(names) > 1:
+            doc["summary_by_variant"] = {v: summarise([r for r in rows if r["variant"] == v])
+                                         for v in names}
+            doc["variant_ratios"] = _ratios(rows, names)
+        doc["elapsed_s"] = time.perf_counter() - t_start
+        if args.json:
+            atomic_write(args.json, dumps_json(doc))
+        return doc
+
+    try:
+        for group, params, path in plan:
+            for name, opts in variants:
+                spec = dict(parameters=params, path=path, hmax=args.hmax, linear_options=opts)
+                rec = run_one(spec, threads=args.threads, timeout=args.timeout)
+                rec.pop("spec", None)
+                rows.append(dict(group=group, parameters=params, path=path, variant=name,
+                                 hmax=args.hmax, **rec))
+                print(f"[{len(rows)}/{len(plan) * len(variants)}] {group} "
+                      f"{params} {path} {name}: {rec.get('status')} "
+                      f"fact={rec.get('factorizations')} wall={fmt(rec.get('wall_time_s'), '.1f')}",
+                      file=sys.stderr)
+                save()
+    except KeyboardInterrupt:
+        print("interrupted: the finished solves are in --json", file=sys.stderr)
+        return 130
+    doc = save()
+    lines = [f"# {cmd}",
+             f"# {info['date']}, {info['cpus']} cpus, load average at start "
+             f"{', '.join(f'{x:.2f}' for x in info.get('load_average_at_start', []))}; "
+             f"{len(rows)} solves in {doc['elapsed_s']:.0f} s; each solve in a fresh process",
+             f"full-path solves at hmax = {args.hmax:g}: a seeded sample of {args.n} sheets "
+             f"(seed {args.seed}; L/a in {BOX['length']}, b/a in {BOX['tip_width']}, a/R in "
+             f"{BOX['curvature']}) on {' and '.join(paths)}, and the solve_speed cases"]
+    lines += table(rows, names)
+    lines += _summary_lines("random sample", {k: doc[k] for k in summarise([]).keys()})
+    lines += _summary_lines("solve_speed cases", doc["summary_cases"])
+    lines += _summary_lines("all", doc["summary_all"])
+    if len(names) > 1:
+        for v, s in doc["summary_by_variant"].items():
+            lines += _summary_lines(f"variant {v} ({json.dumps(dict(variants)[v])})", s)
+        for v, q in doc["variant_ratios"].items():
+            if v == "baseline":
+                continue
+            lines.append(f"variant {v} / {names[0]} over {q['pairs']} paired solves: median "
+                         f"wall ratio {fmt(q['median_wall_ratio'], '.3f')}, median linear-solver"
+                         f" time ratio {fmt(q['median_linear_ratio'], '.3f')}, same Newton "
+                         f"iterations: {q['same_iterations']}, largest relative difference in "
+                         f"d: {fmt(q['max_rel_deflection_difference'], '.2e')}")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.txt:
+        atomic_write(args.txt, text)
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "--child":
+        _child(sys.argv[2], sys.argv[3])
+    else:
+        sys.exit(main())
