@@ -1,8 +1,8 @@
 """analyses/: stability from the inertia, the tip deflection."""
 import numpy as np
 import pytest
-
 from _states import small_problem
+
 from skfem_sheet.analyses.observables import midline_nodes, tip_deflection
 from skfem_sheet.analyses.stability import stability
 
