@@ -377,7 +377,9 @@ def _planform_curves(geo, length, hmax, planform):
     Returns (loop curves, tip curves).
     """
     o = planform.outline(length)
-    pt = lambda x, y: geo.addPoint(x, y, 0.0, hmax)  # noqa: E731
+    def pt(x, y):
+        return geo.addPoint(x, y, 0.0, hmax)
+
     origin = pt(0.0, 0.0)
     start = pt(o.axis_end, 0.0)
     loop, tip = [geo.addLine(origin, start)], []
@@ -399,7 +401,7 @@ def _planform_curves(geo, length, hmax, planform):
     if planform.is_linear:
         loop.append(geo.addLine(start, clamp_top))
     else:
-        n = max(24, int(math.ceil(4.0 * x_end / hmax)))
+        n = max(24, math.ceil(4.0 * x_end / hmax))
         xs = np.linspace(x_end, 0.0, n + 1)[1:-1]
         inner = [pt(float(x), float(0.5 * planform.profile(x / length))) for x in xs]
         loop.append(geo.addSpline([start] + inner + [clamp_top]))

@@ -16,8 +16,15 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
-__all__ = ["Sheet", "Planform", "read_planform_csv", "ParameterError", "check_finite",
-           "check_range", "POISSON_RATIO"]
+__all__ = [
+    "POISSON_RATIO",
+    "ParameterError",
+    "Planform",
+    "Sheet",
+    "check_finite",
+    "check_range",
+    "read_planform_csv",
+]
 
 
 class ParameterError(ValueError):
@@ -182,7 +189,7 @@ class Planform:
 
     # -- construction --------------------------------------------------------------
     @classmethod
-    def from_samples(cls, x, width, bites=()) -> "Planform":
+    def from_samples(cls, x, width, bites=()) -> Planform:
         """Profile samples at ``x`` from 0 to L (L = the last x, kept as :attr:`length`)."""
         x = _samples("planform x", x)
         if abs(x[0]) > 1e-12 * max(1.0, abs(x[-1])):
@@ -193,7 +200,7 @@ class Planform:
                    length=float(x[-1]))
 
     @classmethod
-    def from_function(cls, f, n: int = 65, bites=()) -> "Planform":
+    def from_function(cls, f, n: int = 65, bites=()) -> Planform:
         """Sample ``p = f(xi)`` (xi = x/L in [0, 1]) at ``n`` points, denser near both ends.
 
         Examples
@@ -212,12 +219,12 @@ class Planform:
         return cls(tuple(xi), tuple(w), tuple(bites))
 
     @classmethod
-    def trapezoid(cls, tip_width: float, bites=()) -> "Planform":
+    def trapezoid(cls, tip_width: float, bites=()) -> Planform:
         """The trapezoid p = 1 + (b - 1) x/L (any ``b >= 0``, also flaring ``b > 1``)."""
         b = check_range("tip_width", tip_width, 0, 100)
         return cls((0.0, 1.0), (1.0, b), tuple(bites))
 
-    def replace_bites(self, bites) -> "Planform":
+    def replace_bites(self, bites) -> Planform:
         """The same profile with other bites."""
         return Planform(self.xi, self.width, tuple(bites), self.length)
 
@@ -228,7 +235,7 @@ class Planform:
         return d
 
     @classmethod
-    def from_dict(cls, d) -> "Planform":
+    def from_dict(cls, d) -> Planform:
         if isinstance(d, Planform):
             return d
         if not isinstance(d, dict) or not {"xi", "width"} <= set(d):
@@ -267,7 +274,7 @@ class Planform:
         out = _pchip(self.xi, self.width)[2](s)
         return out if out.ndim else float(out)
 
-    def outline(self, length: float) -> "Outline":
+    def outline(self, length: float) -> Outline:
         """The bite geometry of the sheet of this planform at ``length`` (validated)."""
         return _outline(self, float(length))
 
@@ -325,12 +332,14 @@ class Outline:
         x = np.asarray(x, dtype=float)
         out = np.zeros_like(x)
         for c, r, a, b in self.arcs:
-            def F(t):
-                u = np.clip(t - c, -r, r)
-                return 0.5 * (u * np.sqrt(np.clip(r * r - u * u, 0.0, None))
-                              + r * r * np.arcsin(u / r))
-            out += F(np.clip(x, a, b)) - F(a)
+            out += _circle_area(np.clip(x, a, b), c, r) - _circle_area(a, c, r)
         return out
+
+
+def _circle_area(x, c, r):
+    """An antiderivative of sqrt(r^2 - (x - c)^2)."""
+    u = np.clip(x - c, -r, r)
+    return 0.5 * (u * np.sqrt(np.clip(r * r - u * u, 0.0, None)) + r * r * np.arcsin(u / r))
 
 
 @lru_cache(maxsize=64)
@@ -563,7 +572,7 @@ class Sheet:
             out = out - 2.0 * (o.lower_integral(e) - o.lower_integral(x))
         return out if np.ndim(out) else float(out)
 
-    def replace(self, **changes) -> "Sheet":
+    def replace(self, **changes) -> Sheet:
         """A copy with some parameters changed (validated again).
 
         With a planform, changing ``length`` stretches the profile (it lives
@@ -584,7 +593,7 @@ class Sheet:
         return d
 
     @classmethod
-    def from_planform(cls, planform: Planform, length=None, **params) -> "Sheet":
+    def from_planform(cls, planform: Planform, length=None, **params) -> Sheet:
         """A sheet of ``planform``, of length ``length`` (default: ``planform.length``).
 
         Examples
@@ -601,7 +610,7 @@ class Sheet:
 
     @classmethod
     def from_si(cls, base_width, length, tip_width, thickness, radius,
-                youngs_modulus, density, gravity=9.81) -> "Sheet":
+                youngs_modulus, density, gravity=9.81) -> Sheet:
         """Build a dimensionless sheet from SI quantities.
 
         Parameters

@@ -24,7 +24,7 @@ import weakref
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["midline_nodes", "midline_heights", "free_edge_nodes", "tip_deflection"]
+__all__ = ["free_edge_nodes", "midline_heights", "midline_nodes", "tip_deflection"]
 
 #: free-edge node indices per mesh (they do not change when a space is stretched)
 _FREE_EDGE = weakref.WeakKeyDictionary()

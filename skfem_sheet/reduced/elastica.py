@@ -23,8 +23,12 @@ import numpy as np
 from scipy.integrate import solve_bvp
 
 from skfem_sheet.params import ParameterError
-from skfem_sheet.reduced._common import (as_sheet, integrated_profile,
-                                         weight_per_area, width_profile)
+from skfem_sheet.reduced._common import (
+    as_sheet,
+    integrated_profile,
+    weight_per_area,
+    width_profile,
+)
 
 __all__ = ["ElasticaResult", "elastica", "elastica_linear_deflection"]
 
@@ -72,11 +76,18 @@ def _system(sheet, load):
     D = sheet.bending_modulus
     q = load * weight_per_area(sheet)
 
-    def fun(s, y):
-        phi, m, _ = y
-        p = width_profile(s / L, b)
-        dphi = np.divide(m, D * p, out=np.zeros_like(m), where=p > 1e-12)
-        return np.vstack([dphi, q * integrated_profile(s / L, L, b) * np.cos(phi), np.sin(phi)])
+    if sheet.planform is None:
+        def fun(s, y):
+            phi, m, _ = y
+            p = width_profile(s / L, b)
+            dphi = np.divide(m, D * p, out=np.zeros_like(m), where=p > 1e-12)
+            return np.vstack([dphi, q * integrated_profile(s / L, L, b) * np.cos(phi), np.sin(phi)])
+    else:   # any planform: its cross-section width and the area beyond s
+        def fun(s, y):
+            phi, m, _ = y
+            p = np.asarray(sheet.width(s), dtype=float)
+            dphi = np.divide(m, D * p, out=np.zeros_like(m), where=p > 1e-12)
+            return np.vstack([dphi, q * sheet.width_integral(s) * np.cos(phi), np.sin(phi)])
 
     def bc(ya, yb):
         return np.array([ya[0], yb[1], ya[2]])
@@ -95,8 +106,9 @@ def elastica(sheet, tol: float = 1e-9, n_nodes: int = 101, max_nodes: int = 1000
     Parameters
     ----------
     sheet : Sheet
-        Uses ``length``, ``tip_width``, ``thickness`` (rho g h) and ``modulus`` (D).
-        The clamp curvature is ignored.
+        Uses ``length``, ``tip_width`` (or the ``planform``: p = ``sheet.width``,
+        on ``0 <= s <= sheet.extent``), ``thickness`` (rho g h) and ``modulus``
+        (D).  The clamp curvature is ignored.
     tol : float
         Residual tolerance of :func:`scipy.integrate.solve_bvp`.
     n_nodes : int
@@ -121,7 +133,7 @@ def elastica(sheet, tol: float = 1e-9, n_nodes: int = 101, max_nodes: int = 1000
         raise ParameterError(f"tol must be in (0, 0.01), got {tol!r}")
     if int(n_nodes) < 5:
         raise ParameterError(f"n_nodes must be in [5, inf), got {n_nodes!r}")
-    s = np.linspace(0.0, sheet.length, int(n_nodes))
+    s = np.linspace(0.0, sheet.extent, int(n_nodes))   # extent: L, or where bites end
     y = np.zeros((3, s.size))
     # Continuation in the load from the straight sheet: a cold start at large
     # loads can land on spurious looping solutions of the BVP.
