@@ -3,15 +3,17 @@
 Run from the repository root: ``PYTHONPATH=. python benchmarks/planform_acceptance.py [part ...]``
 with parts ``sampled``, ``flare``, ``elastica``, ``bites`` (default: all).  Each part
 writes ``benchmarks/results/planform_<part>.json`` (one record per solve, the
-table rewritten after every solve) and prints a short table.  The bitten-triangle
-part also saves pictures under ``benchmarks/results/``.
+table rewritten after every solve) and its table to ``planform_<part>.txt``
+(``--report`` rewrites the tables from the JSON without solving).  The
+bitten-triangle part also saves pictures under ``benchmarks/results/``, the
+part ``gallery`` the figure ``docs/gallery/planform_bites.png``.
 
 - sampled: a trapezoid given as sampled points (3 samples, PCHIP) against the
   trapezoid itself, 3D (hmax 0.1) on both load paths and every reduced model;
   plus the same samples perturbed by 1e-9 (which forces the spline outline and an
   unrelated mesh) to show the size of the mesh-to-mesh noise the exact match avoids.
-- flare: b/a = 1.5 against b/a = 1, 3D (hmax 0.1, curvature-first) against the
-  ribbon model at L/a = 1.0 and 1.3, a/R = 0 and 2.5.
+- flare (and flare_h0.06): b/a = 1.5 against b/a = 1, 3D (hmax 0.1, and 0.06)
+  curvature-first, against the ribbon model at L/a = 1.0 and 1.3, a/R = 0 and 2.5.
 - elastica: the heavy elastica at a/R = 0, L/a = 1 against the 3D flat sheet at
   hmax 0.06 for b/a = 1.5 and 1.
 - bites: the triangle at L/a = 1.3, a/R = 2.5 with no, one and two bites
@@ -19,6 +21,7 @@ part also saves pictures under ``benchmarks/results/``.
 """
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -69,33 +72,48 @@ def sampled():
             _, rec = _solve(s, path, 0.1)
             rows.append({"case": name, **rec, **red[name]})
             _save("sampled", rows)
-    base = {(r["path"]): r for r in rows if r["case"] == "trapezoid"}
-    print("case                     path              d_3D           |d - d_trapezoid|")
+    return rows
+
+
+def report_sampled(rows):
+    base = {r["path"]: r for r in rows if r["case"] == "trapezoid"}
+    out = ["3D (hmax 0.1, L/a 1.3, b/a 0.6, a/R 2.5) and reduced models: sampled trapezoid",
+           "case                     path              d_3D           |d - d_trapezoid|"]
     for r in rows:
-        print(f"{r['case']:24s} {r['path']:16s} {r['deflection']:.10f}  "
-              f"{abs(r['deflection'] - base[r['path']]['deflection']):.2e}")
-    for key in red["trapezoid"]:
-        print(f"reduced {key:20s} |sampled - trapezoid| = "
-              f"{abs(red['sampled'][key] - red['trapezoid'][key]):.2e}")
+        out.append(f"{r['case']:24s} {r['path']:16s} {r['deflection']:.10f}  "
+                   f"{abs(r['deflection'] - base[r['path']]['deflection']):.2e}")
+    by = {r["case"]: r for r in rows}
+    for key in ("elastica", "ribbon_curvature", "ribbon_gravity", "persistence_length",
+                "cantilever"):
+        out.append(f"reduced {key:20s} |sampled - trapezoid| = "
+                   f"{abs(by['sampled'][key] - by['trapezoid'][key]):.2e}")
+    return out
 
 
-def flare():
+def flare(hmax=0.1):
     rows = []
     for L in (1.0, 1.3):
         for k in (0.0, 2.5):
             for b in (1.0, 1.5):
                 s = Sheet.from_planform(Planform.trapezoid(b), length=L, curvature=k)
-                _, rec = _solve(s, "curvature-first", 0.1)
+                _, rec = _solve(s, "curvature-first", hmax)
                 rb = ribbon(s, "curvature")
                 rows.append({"length": L, "curvature": k, "tip_width": b, **rec,
                              "ribbon": rb.deflection, "ribbon_converged": rb.converged,
                              "relative_difference": (rb.deflection - rec["deflection"])
                              / abs(rec["deflection"])})
-                _save("flare", rows)
-    print(" L    a/R   b/a   d_3D(h0.1)  d_ribbon   (ribbon-3D)/|3D|")
+                _save("flare" if hmax == 0.1 else f"flare_h{hmax:g}", rows)
+    return rows
+
+
+def report_flare(rows):
+    out = [f"3D (hmax {rows[0]['hmax']:g}, curvature-first) against the ribbon model (curvature branch)",
+           " L    a/R   b/a   d_3D       d_ribbon   ribbon-3D   (ribbon-3D)/|3D|"]
     for r in rows:
-        print(f"{r['length']:.1f}  {r['curvature']:.1f}  {r['tip_width']:.1f}  "
-              f"{r['deflection']:.5f}   {r['ribbon']:.5f}   {100 * r['relative_difference']:+.2f}%")
+        out.append(f"{r['length']:.1f}  {r['curvature']:.1f}  {r['tip_width']:.1f}  "
+                   f"{r['deflection']:+.5f}  {r['ribbon']:+.5f}  {r['ribbon'] - r['deflection']:+.5f}"
+                   f"    {100 * r['relative_difference']:+.2f}%")
+    return out
 
 
 def elastica_part():
@@ -107,9 +125,13 @@ def elastica_part():
         rows.append({"tip_width": b, **rec, "elastica": e,
                      "relative_difference": (rec["deflection"] - e) / e})
         _save("elastica", rows)
-    for r in rows:
-        print(f"b/a {r['tip_width']:.1f}: d_3D(h0.06) {r['deflection']:.5f}, elastica "
-              f"{r['elastica']:.5f}, 3D above elastica by {100 * r['relative_difference']:.2f}%")
+    return rows
+
+
+def report_elastica(rows):
+    return [f"b/a {r['tip_width']:.1f}, a/R 0, L/a 1: d_3D(hmax {r['hmax']:g}) {r['deflection']:.5f}, "
+            f"heavy elastica {r['elastica']:.5f}, (3D - elastica)/elastica = "
+            f"{100 * r['relative_difference']:+.2f}%" for r in rows]
 
 
 def bites():
@@ -129,14 +151,78 @@ def bites():
                 tag = name.replace(" ", "_")
                 plot_sheet(r, os.path.join(RESULTS, f"planform_{tag}_{path}.png"),
                            title=f"{name}, L/a = 1.3, a/R = 2.5, {path}, d = {r.deflection:.3f}")
-    print("case        path              d_3D(h0.1)  conv  ribbon(c/g)          extent  area")
+    return rows
+
+
+def report_bites(rows):
+    out = ["triangle L/a 1.3, a/R 2.5, bites of radius 0.25 (3D hmax 0.1; ribbon curvature/gravity branch)",
+           "case        path              d_3D      conv   ribbon(c/g)        elastica  extent  area"]
     for r in rows:
-        print(f"{r['case']:10s}  {r['path']:16s}  {r['deflection']:.5f}   {r['converged']!s:5s} "
-              f"{r['ribbon_curvature']:.4f}/{r['ribbon_gravity']:.4f}  {r['extent']:.3f}  {r['area']:.3f}")
+        out.append(f"{r['case']:10s}  {r['path']:16s}  {r['deflection']:+.5f}  {r['converged']!s:5s}  "
+                   f"{r['ribbon_curvature']:+.4f}/{r['ribbon_gravity']:+.4f}  {r['elastica']:.4f}  "
+                   f"{r['extent']:.3f}   {r['area']:.3f}")
+    return out
 
 
-PARTS = {"sampled": sampled, "flare": flare, "elastica": elastica_part, "bites": bites}
+def gallery():
+    """The triangle, once and twice bitten, side by side on one colour scale."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from skfem_sheet.plot import plot_sheet, top_surface
+    import numpy as np
+
+    cases = {"triangle": (), "one bite": (0.25,), "two bites": (0.25, 0.25)}
+    results = {}
+    for name, bt in cases.items():
+        s = Sheet.from_planform(Planform.trapezoid(0.0, bites=bt), length=1.3, curvature=2.5)
+        results[name] = solve(s, path="curvature-first", hmax=0.1)
+    vmax = max(float(np.percentile(top_surface(r)[2], 99)) for r in results.values())
+    fig = plt.figure(figsize=(13.5, 4.4))
+    for i, (name, r) in enumerate(results.items()):
+        ax = fig.add_subplot(1, 3, i + 1, projection="3d")
+        plot_sheet(r, ax=ax, vmax=vmax, colorbar=False,
+                   title=f"{name}: d/a = {r.deflection:.3f}")
+        ax.set_xlim(0, 1.3)
+        ax.set_ylim(-0.65, 0.65)
+        ax.set_zlim(-0.65, 0.65)
+    from matplotlib import cm, colors
+    fig.colorbar(cm.ScalarMappable(norm=colors.Normalize(0.0, vmax), cmap="viridis"),
+                 ax=fig.axes, shrink=0.6, pad=0.02, label=r"$\psi/\mu$")
+    fig.suptitle("A slice of pizza, L/a = 1.3, a/R = 2.5 (hmax 0.1, curvature-first): "
+                 "bites of radius 0.25a lift the tip", fontsize=10)
+    path = os.path.join(HERE, os.pardir, "docs", "gallery", "planform_bites.png")
+    fig.savefig(path, dpi=130, bbox_inches="tight")
+    plt.close(fig)
+    return [f"{name}: d/a = {r.deflection:.5f}" for name, r in results.items()]
+
+
+PARTS = {"sampled": (sampled, report_sampled), "flare": (flare, report_flare),
+         "flare_h0.06": (lambda: flare(0.06), report_flare),
+         "elastica": (elastica_part, report_elastica), "bites": (bites, report_bites)}
+
+
+def main(argv):
+    """``[--report] [part ...]``: run (or, with --report, re-read) the parts and
+    write their tables to ``benchmarks/results/planform_<part>.txt``."""
+    report_only = "--report" in argv
+    parts = [a for a in argv if a != "--report"] or [*PARTS, "gallery"]
+    for part in parts:
+        if part == "gallery":
+            lines = gallery()
+        else:
+            run, report = PARTS[part]
+            if report_only:
+                with open(os.path.join(RESULTS, f"planform_{part}.json")) as fh:
+                    rows = json.load(fh)
+            else:
+                rows = run()
+            lines = report(rows)
+        text = "\n".join(lines) + "\n"
+        atomic_write(os.path.join(RESULTS, f"planform_{part}.txt"), text)
+        print(text)
+
 
 if __name__ == "__main__":
-    for part in sys.argv[1:] or list(PARTS):
-        PARTS[part]()
+    main(sys.argv[1:])
