@@ -26,10 +26,17 @@ import os
 import sys
 import time
 
+import numpy as np
+
 from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.params import Planform, Sheet
-from skfem_sheet.reduced import (cantilever_deflection, elastica, persistence_length,
-                                 ribbon)
+from skfem_sheet.plot import plot_sheet, top_surface
+from skfem_sheet.reduced import (
+    cantilever_deflection,
+    elastica,
+    persistence_length,
+    ribbon,
+)
 from skfem_sheet.solve import solve
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -135,7 +142,6 @@ def report_elastica(rows):
 
 
 def bites():
-    from skfem_sheet.plot import plot_sheet
     rows = []
     cases = {"triangle": (), "one bite": (0.25,), "two bites": (0.25, 0.25)}
     for name, bt in cases.items():
@@ -166,12 +172,11 @@ def report_bites(rows):
 
 def gallery():
     """The triangle, once and twice bitten, side by side on one colour scale."""
+    # deferred: the backend must be chosen before pyplot is imported
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from skfem_sheet.plot import plot_sheet, top_surface
-    import numpy as np
+    from matplotlib import cm, colors
 
     cases = {"triangle": (), "one bite": (0.25,), "two bites": (0.25, 0.25)}
     results = {}
@@ -187,7 +192,6 @@ def gallery():
         ax.set_xlim(0, 1.3)
         ax.set_ylim(-0.65, 0.65)
         ax.set_zlim(-0.65, 0.65)
-    from matplotlib import cm, colors
     fig.colorbar(cm.ScalarMappable(norm=colors.Normalize(0.0, vmax), cmap="viridis"),
                  ax=fig.axes, shrink=0.6, pad=0.02, label=r"$\psi/\mu$")
     fig.suptitle("A slice of pizza, L/a = 1.3, a/R = 2.5 (hmax 0.1, curvature-first): "

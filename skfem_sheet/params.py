@@ -200,8 +200,11 @@ class Planform:
                    length=float(x[-1]))
 
     @classmethod
-    def from_function(cls, f, n: int = 65, bites=()) -> Planform:
+    def from_function(cls, f, n: int = 65, bites=(), length=None) -> Planform:
         """Sample ``p = f(xi)`` (xi = x/L in [0, 1]) at ``n`` points, denser near both ends.
+
+        With ``length``, ``f`` is a function of x in [0, length] instead (and
+        ``length`` is kept as :attr:`length`).
 
         Examples
         --------
@@ -214,9 +217,14 @@ class Planform:
             raise ParameterError(f"n must be an integer in [2, inf), got {n!r}")
         xi = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n)))   # Chebyshev-Lobatto
         xi[0], xi[-1] = 0.0, 1.0
-        w = np.array([float(f(s)) for s in xi])
+        if length is not None:
+            length = check_range("length", length, 0, 100, lo_open=True)
+        try:
+            w = np.array([float(f(s if length is None else s * length)) for s in xi])
+        except (TypeError, ValueError) as err:
+            raise ParameterError(f"planform function must return a number, got: {err}") from None
         w[np.abs(w) < 1e-14] = 0.0
-        return cls(tuple(xi), tuple(w), tuple(bites))
+        return cls(tuple(xi), tuple(w), tuple(bites), length)
 
     @classmethod
     def trapezoid(cls, tip_width: float, bites=()) -> Planform:
@@ -435,9 +443,10 @@ class Sheet:
         h/a, as in the paper's experiments.
     modulus : float, default 735.0
         E/(rho g a), the dimensionless Young's modulus (paper: 735).
-    planform : Planform, optional
+    planform : Planform or callable, optional
         Any plan view instead of the trapezoid (a width profile on x/L and tip
-        bites; a dict from :meth:`to_dict` is accepted).  ``tip_width`` is then
+        bites; a dict from :meth:`to_dict` is accepted, and a callable p(x) on
+        [0, L] is sampled by :meth:`Planform.from_function`).  ``tip_width`` is then
         the profile's width at x = L (leave it at the default or pass that
         value; it may exceed 1).  Without a planform the sheet is the
         trapezoid exactly as before.
@@ -467,6 +476,9 @@ class Sheet:
                 "tip_width", self.tip_width, 0, 1,
                 hint="b/a: 1 is a rectangle, 0 a triangle; wider tips (b > a) need a planform"))
         else:
+            if callable(self.planform) and not isinstance(self.planform, Planform):
+                # p(x) on [0, L], sampled once (the sheet stays hashable and picklable)
+                set_(self, "planform", Planform.from_function(self.planform, length=self.length))
             pf = Planform.from_dict(self.planform)
             if pf.length is not None:   # the Sheet's length is the length
                 pf = Planform(pf.xi, pf.width, pf.bites)

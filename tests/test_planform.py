@@ -6,12 +6,21 @@ import pickle
 import numpy as np
 import pytest
 
-from skfem_sheet.analyses.observables import free_edge_nodes, midline_nodes, tip_deflection
+from skfem_sheet.analyses.observables import (
+    free_edge_nodes,
+    midline_nodes,
+    tip_deflection,
+)
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError, Planform, Sheet, read_planform_csv
 from skfem_sheet.problem import SheetProblem
-from skfem_sheet.reduced import (cantilever_deflection, elastica, persistence_length,
-                                 persistence_length_asymptotic, ribbon)
+from skfem_sheet.reduced import (
+    cantilever_deflection,
+    elastica,
+    persistence_length,
+    persistence_length_asymptotic,
+    ribbon,
+)
 from skfem_sheet.reduced.cantilever import flat_cantilever_drop
 
 
@@ -25,8 +34,8 @@ def sampled_trapezoid(L, b, k=0.0, x_mid=None):
 def test_trapezoid_sheet_unchanged():
     s = Sheet(1.3, 0.6, 2.5)
     assert s.planform is None and s.extent == 1.3
-    assert s.to_dict() == dict(length=1.3, tip_width=0.6, curvature=2.5, thickness=0.03,
-                               modulus=735.0)
+    assert s.to_dict() == {"length": 1.3, "tip_width": 0.6, "curvature": 2.5, "thickness": 0.03,
+                               "modulus": 735.0}
     assert s.width(0.65) == 1.0 + (0.6 - 1.0) * 0.65 / 1.3
     assert s.replace(length=2.0) == Sheet(2.0, 0.6, 2.5)
 
@@ -46,6 +55,15 @@ def test_sheet_with_planform_is_hashable_picklable_and_round_trips():
     assert pickle.loads(pickle.dumps(s)) == s
     assert s.to_dict()["planform"] == {"xi": [0.0, 1.0], "width": [1.0, 0.0], "bites": [0.3, 0.2]}
     assert s.replace(curvature=1.0).planform == s.planform
+
+
+def test_callable_profile_is_sampled_in_x():
+    s = Sheet(2.0, planform=lambda x: 1 + 0.25 * x)       # a flare to b/a = 1.5 at L = 2
+    assert isinstance(s.planform, Planform) and s.tip_width == pytest.approx(1.5)
+    assert s.width(1.0) == pytest.approx(1.25, abs=1e-14)
+    assert s.planform.is_linear and s == Sheet.from_planform(s.planform, length=2.0)
+    with pytest.raises(ParameterError, match="must return a number"):
+        Sheet(1.0, planform=lambda x: "wide")
 
 
 def test_continuation_in_length_stretches_the_profile():
