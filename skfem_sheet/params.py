@@ -111,7 +111,9 @@ class Planform:
     Bites are circles centred on the axis, radii in units of ``a``: the first is
     centred at the tip ``x = L``, each next one at the innermost point the
     previous one left on the axis (``c_1 = L``, ``c_{k+1} = c_k - r_k``), the way
-    one eats a slice of pizza.  The bites' radii do not stretch with ``L``.
+    one eats a slice of pizza.  The bites' radii do not stretch with ``L``
+    (but a mesh stretched without remeshing, ``SheetProblem.with_length``,
+    stretches its bites into ellipses until the next remesh).
 
     Parameters
     ----------
@@ -429,7 +431,8 @@ def read_planform_csv(path) -> Planform:
 
 @dataclass(frozen=True)
 class Sheet:
-    """A trapezoidal sheet clamped on a circular arc, in units of its base width.
+    """A sheet clamped on a circular arc, in units of its base width: a trapezoid,
+    or any :class:`Planform`.
 
     Parameters
     ----------
