@@ -16,6 +16,8 @@ part ``gallery`` the figure ``docs/gallery/planform_bites.png``.
   curvature-first, against the ribbon model at L/a = 1.0 and 1.3, a/R = 0 and 2.5.
 - elastica: the heavy elastica at a/R = 0, L/a = 1 against the 3D flat sheet at
   hmax 0.06 for b/a = 1.5 and 1.
+- leaf: a pointed leaf (spline outline), a/R = 0 and 2.5, both paths at hmax 0.1
+  and 0.06, with the heavy elastica and the ribbon model.
 - bites: the triangle at L/a = 1.3, a/R = 2.5 with no, one and two bites
   (radius 0.25 each), both load paths at hmax 0.1, with the ribbon model.
 """
@@ -170,6 +172,32 @@ def report_bites(rows):
     return out
 
 
+def leaf():
+    """A pointed leaf p = 1 + x - (2.2/1.44) x^2 (L = 1.2): the spline outline in 3D."""
+    rows = []
+    for k in (0.0, 2.5):
+        s = Sheet(1.2, planform=lambda x: 1 + x - 2.2 / 1.44 * x**2, curvature=k)
+        red = {"elastica": elastica(s).deflection,
+               "ribbon_curvature": ribbon(s, "curvature").deflection,
+               "ribbon_gravity": ribbon(s, "gravity").deflection}
+        for path in PATHS:
+            for hmax in (0.1, 0.06):
+                _, rec = _solve(s, path, hmax)
+                rows.append({"curvature": k, "area": s.area, **rec, **red})
+                _save("leaf", rows)
+    return rows
+
+
+def report_leaf(rows):
+    out = ["leaf p = 1 + x - (2.2/1.44) x^2, L/a = 1.2 (pointed tip), 3D against reduced models",
+           "a/R   path              hmax  d_3D      conv   elastica  ribbon(c/g)"]
+    for r in rows:
+        out.append(f"{r['curvature']:.1f}   {r['path']:16s}  {r['hmax']:.2f}  {r['deflection']:+.5f}  "
+                   f"{r['converged']!s:5s}  {r['elastica']:.5f}   "
+                   f"{r['ribbon_curvature']:+.5f}/{r['ribbon_gravity']:+.5f}")
+    return out
+
+
 def gallery():
     """The triangle, once and twice bitten, side by side on one colour scale."""
     # deferred: the backend must be chosen before pyplot is imported
@@ -204,7 +232,8 @@ def gallery():
 
 PARTS = {"sampled": (sampled, report_sampled), "flare": (flare, report_flare),
          "flare_h0.06": (lambda: flare(0.06), report_flare),
-         "elastica": (elastica_part, report_elastica), "bites": (bites, report_bites)}
+         "elastica": (elastica_part, report_elastica), "bites": (bites, report_bites),
+         "leaf": (leaf, report_leaf)}
 
 
 def main(argv):

@@ -284,3 +284,18 @@ def test_3d_bitten_sheet_solves_and_its_tip_is_on_the_bite():
     assert r.converged
     d = tip_deflection(r.problem, r.w)
     assert d == r.deflection and 0 < d < solve(Sheet(0.8), hmax=0.2).deflection
+
+
+def test_curved_outlines_converge_at_second_order():
+    # spline side (leaf) and circle arcs (bite): the meshed area error falls like h^2
+    leaf = Sheet(1.2, planform=lambda x: 1 + x - 2.2 / 1.44 * x**2)
+    bitten = Sheet.from_planform(Planform.trapezoid(1.0, bites=(0.3,)), length=1.0)
+    for s in (leaf, bitten):
+        err = []
+        for h in (0.1, 0.05):
+            m = sheet_mesh(s, h, half=True).mesh
+            v = m.p[:, m.t]
+            vol = np.einsum("ij,ij->j", np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], axis=0),
+                            v[:, 3] - v[:, 0]).sum() / 6
+            err.append(abs(2 * vol / s.thickness - s.area))
+        assert err[1] < err[0] / 3 and err[1] < 1e-3 * s.area
