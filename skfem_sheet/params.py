@@ -660,6 +660,13 @@ class Sheet:
         E = check_range("youngs_modulus", youngs_modulus, 0, None, lo_open=True)
         rho = check_range("density", density, 0, None, lo_open=True)
         g = check_range("gravity", gravity, 0, None, lo_open=True)
+        weight = rho * g * a
+        if not (weight > 0 and math.isfinite(weight) and math.isfinite(E / weight)):
+            # each factor is valid, but rho g a under- or overflows
+            raise ParameterError(
+                f"gravity must make rho g a (density * gravity * base_width) a positive finite "
+                f"number that E/(rho g a) stays finite for, got {gravity!r} "
+                f"(rho g a = {weight!r})")
         return cls(length=length / a, tip_width=tip_width / a,
                    curvature=0.0 if math.isinf(r) else a / r,
-                   thickness=thickness / a, modulus=E / (rho * g * a))
+                   thickness=thickness / a, modulus=E / weight)
