@@ -18,8 +18,9 @@ part ``gallery`` the figure ``docs/gallery/planform_bites.png``.
   hmax 0.06 for b/a = 1.5 and 1.
 - leaf: a pointed leaf (spline outline), a/R = 0 and 2.5, both paths at hmax 0.1
   and 0.06, with the heavy elastica and the ribbon model.
-- bites: the triangle at L/a = 1.3, a/R = 2.5 with no, one and two bites
-  (radius 0.25 each), both load paths at hmax 0.1, with the ribbon model.
+- bites (and bites_h0.06): the triangle at L/a = 1.3, a/R = 2.5 with no, one and
+  two bites (radius 0.25 each), and the trapezoids cut straight where each bite
+  leaves the axis, both load paths at hmax 0.1 (0.06), with the reduced models.
 """
 from __future__ import annotations
 
@@ -143,19 +144,28 @@ def report_elastica(rows):
             f"{100 * r['relative_difference']:+.2f}%" for r in rows]
 
 
-def bites():
+def bites(hmax=0.1):
+    """The triangle with no, one and two bites, and the trapezoids cut straight where
+    each bite leaves the axis (the trapezoid the paper says a bitten slice approximates)."""
     rows = []
     cases = {"triangle": (), "one bite": (0.25,), "two bites": (0.25, 0.25)}
+    sheets = {}
     for name, bt in cases.items():
         s = Sheet.from_planform(Planform.trapezoid(0.0, bites=bt), length=1.3, curvature=2.5)
+        sheets[name] = s
+        if bt:
+            x0 = s.outline.axis_end
+            sheets[f"cut at {x0:g}"] = Sheet(x0, 1.0 - x0 / 1.3, 2.5)
+    for name, s in sheets.items():
         red = {"ribbon_curvature": ribbon(s, "curvature").deflection,
                "ribbon_gravity": ribbon(s, "gravity").deflection, "elastica": elastica(s).deflection}
         for path in PATHS:
-            r, rec = _solve(s, path, 0.1)
-            rows.append({"case": name, "bites": list(bt), "extent": s.extent, "area": s.area,
-                         **rec, **red})
-            _save("bites", rows)
-            if r.converged:
+            r, rec = _solve(s, path, hmax)
+            rows.append({"case": name, "bites": list(s.planform.bites) if s.planform else [],
+                         "length": s.length, "tip_width": s.tip_width, "extent": s.extent,
+                         "area": s.area, **rec, **red})
+            _save("bites" if hmax == 0.1 else f"bites_h{hmax:g}", rows)
+            if r.converged and s.planform is not None and hmax == 0.1:
                 tag = name.replace(" ", "_")
                 plot_sheet(r, os.path.join(RESULTS, f"planform_{tag}_{path}.png"),
                            title=f"{name}, L/a = 1.3, a/R = 2.5, {path}, d = {r.deflection:.3f}")
@@ -163,12 +173,15 @@ def bites():
 
 
 def report_bites(rows):
-    out = ["triangle L/a 1.3, a/R 2.5, bites of radius 0.25 (3D hmax 0.1; ribbon curvature/gravity branch)",
-           "case        path              d_3D      conv   ribbon(c/g)        elastica  extent  area"]
+    out = [f"triangle L/a 1.3, a/R 2.5, bites of radius 0.25 (3D hmax {rows[0]['hmax']:g}; "
+           "ribbon curvature/gravity branch); 'cut at x0': the trapezoid cut straight at "
+           "the bite's innermost point",
+           "case         path              d_3D      conv   ribbon(c/g)        elastica  "
+           "L      b/a    extent  area"]
     for r in rows:
-        out.append(f"{r['case']:10s}  {r['path']:16s}  {r['deflection']:+.5f}  {r['converged']!s:5s}  "
+        out.append(f"{r['case']:11s}  {r['path']:16s}  {r['deflection']:+.5f}  {r['converged']!s:5s}  "
                    f"{r['ribbon_curvature']:+.4f}/{r['ribbon_gravity']:+.4f}  {r['elastica']:.4f}  "
-                   f"{r['extent']:.3f}   {r['area']:.3f}")
+                   f"{r['length']:.3f}  {r['tip_width']:.3f}  {r['extent']:.3f}   {r['area']:.3f}")
     return out
 
 
@@ -233,7 +246,7 @@ def gallery():
 PARTS = {"sampled": (sampled, report_sampled), "flare": (flare, report_flare),
          "flare_h0.06": (lambda: flare(0.06), report_flare),
          "elastica": (elastica_part, report_elastica), "bites": (bites, report_bites),
-         "leaf": (leaf, report_leaf)}
+         "bites_h0.06": (lambda: bites(0.06), report_bites), "leaf": (leaf, report_leaf)}
 
 
 def main(argv):
