@@ -173,11 +173,11 @@ def bites(hmax=0.1):
 
 
 def report_bites(rows):
-    out = [f"triangle L/a 1.3, a/R 2.5, bites of radius 0.25 (3D hmax {rows[0]['hmax']:g}; "
+    out = [(f"triangle L/a 1.3, a/R 2.5, bites of radius 0.25 (3D hmax {rows[0]['hmax']:g}; "
            "ribbon curvature/gravity branch); 'cut at x0': the trapezoid cut straight at "
-           "the bite's innermost point",
-           "case         path              d_3D      conv   ribbon(c/g)        elastica  "
-           "L      b/a    extent  area"]
+           "the bite's innermost point"),
+           ("case         path              d_3D      conv   ribbon(c/g)        elastica  "
+           "L      b/a    extent  area")]
     for r in rows:
         out.append(f"{r['case']:11s}  {r['path']:16s}  {r['deflection']:+.5f}  {r['converged']!s:5s}  "
                    f"{r['ribbon_curvature']:+.4f}/{r['ribbon_gravity']:+.4f}  {r['elastica']:.4f}  "
