@@ -1,7 +1,10 @@
 """Meshes of the trapezoidal prism: a gmsh triangulation of the plan, extruded.
 
 The sheet occupies ``x in [0, L]``, ``|y| <= p(x)/2``, ``|z| <= h/2`` with
-``p(x) = 1 + (b - 1) x / L``.  We mesh the *upper half* of the plan view
+``p(x) = 1 + (b - 1) x / L`` (or the profile and bites of a
+:class:`~skfem_sheet.params.Planform`: the outline is then lines, exact circle
+arcs for the bites and a spline through the sampled profile, see
+:func:`_planform_curves`).  We mesh the *upper half* of the plan view
 (``y >= 0``) with gmsh, mirror it to ``y <= 0`` and extrude it through the
 thickness in ``layers`` layers; each prism is cut into three tetrahedra.
 With ``half=True`` the mirror is skipped: the mesh is then exactly the
@@ -9,8 +12,8 @@ With ``half=True`` the mirror is skipped: the mesh is then exactly the
 half-model of :func:`skfem_sheet.solve` (``U_y = 0`` on ``y = 0``).
 
 Nested refinement (``refine=k``): the plan triangulation made at ``hmax`` is
-split ``k`` times into four (edge midpoints; the plan's edges are straight, so
-the geometry stays exact) and extruded in ``layers * 2**k`` layers.  Every edge
+split ``k`` times into four (edge midpoints; the trapezoid's edges are straight,
+so its geometry stays exact; a curved outline stays the polygon of the base mesh) and extruded in ``layers * 2**k`` layers.  Every edge
 of the base mesh is halved ``k`` times in all three directions, so the meshes
 ``refine = 0, 1, 2, ...`` of one base are nested (each one's vertices contain
 the previous one's, and each prism lies in one prism of the coarser mesh) and
@@ -38,7 +41,7 @@ cached in memory: repeated solves on the same sheet do not remesh.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -71,6 +74,15 @@ class SheetMesh:
         Only the half ``y >= 0`` is meshed (symmetric half-model).
     refine : int
         Number of nested refinements of the base mesh (0: the base mesh).
+    planform : Planform or None
+        The plan view (None: the trapezoid of ``tip_width``).
+    free_edge : ndarray (k, 2) or None
+        Plan coordinates ``(x, y)`` (at ``length``) of the mesh points on the
+        free edge: the vertices and edge midpoints of the plan's boundary
+        edges on the tip outline (the cut ``x = L`` and the bites; the tip
+        point of a pointed sheet).  Their mid-plane nodes are where the tip
+        deflection is read (:func:`skfem_sheet.analyses.observables.free_edge_nodes`).
+        None for meshes built by hand: the free edge is then ``x = length``.
     """
 
     mesh: object
@@ -81,6 +93,8 @@ class SheetMesh:
     layers: int
     half: bool = False
     refine: int = 0
+    planform: object = None
+    free_edge: object = field(default=None, repr=False)
 
     @property
     def n_elements(self) -> int:
@@ -153,11 +167,37 @@ def _check_mesh_args(sheet: Sheet, hmax: float, layers):
     if hmax < 2e-3:
         raise ParameterError(f"hmax must be in [0.002, {top:g}]: smaller meshes do not "
                          f"fit in memory here, got {hmax!r}")
+    if getattr(sheet, "planform", None) is not None:
+        _check_narrow(sheet, hmax)
     if layers is None:
         layers = default_layers(sheet.thickness, hmax)
     if isinstance(layers, bool) or not float(layers).is_integer() or not 1 <= layers <= 16:
         raise ParameterError(f"layers must be an integer in [1, 16], got {layers!r}")
     return hmax, int(layers)
+
+
+def _check_narrow(sheet: Sheet, hmax: float) -> None:
+    """Refuse a planform narrower than ``2 hmax`` anywhere but a tip narrowing to its end.
+
+    The width is that of the material at x (both horns of a bitten tip
+    together).  Below two elements across, a neck cannot be meshed faithfully;
+    a tip that narrows monotonically to the end (a triangle, a leaf, the horns
+    a bite leaves) is fine: its elements just get smaller.
+    """
+    x = np.linspace(0.0, sheet.extent, 2001)
+    w = np.asarray(sheet.width(x), dtype=float)
+    narrow = w < 2.0 * hmax
+    if not narrow.any():
+        return
+    k = int(np.argmax(narrow))
+    tail = w[k:]
+    rises = np.diff(tail) > 1e-9 * max(1.0, float(w.max()))
+    if rises.any():
+        j = k + int(np.argmax(rises))
+        raise ParameterError(
+            f"planform is too narrow for hmax = {hmax:g}: its width {w[j]:.3g} at x = {x[j]:.3g} "
+            f"is below 2 hmax = {2 * hmax:g} and widens again (a neck; only a tip that narrows "
+            "to its end may be narrower): use a smaller hmax or a wider planform")
 
 
 def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False,
@@ -187,7 +227,7 @@ def estimate_dofs(sheet: Sheet, hmax: float, layers=None, half: bool = False,
 
 
 def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool = False,
-                       refine: int = 0):
+                       refine: int = 0, planform=None):
     """Triangulate the plan view, mirror-symmetric about ``y = 0``.
 
     With ``half=True`` only the part ``y >= 0`` (the same triangles, in the
@@ -203,8 +243,18 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
         order commutes with the mirror ``y -> -y``.
     tri : ndarray, shape (m, 3)
         Triangles (counter-clockwise).
+
+    With a ``planform`` (:class:`~skfem_sheet.params.Planform`) the outline
+    follows its profile and bites (``tip_width`` is then ignored).
     """
-    half_xy, half_tri = _half_plan(float(length), float(tip_width), float(hmax))
+    xy, tri, _ = _plan(length, tip_width, hmax, half, refine, planform)
+    return xy, tri
+
+
+def _plan(length, tip_width, hmax, half=False, refine=0, planform=None):
+    """:func:`plan_triangulation` and the free-edge points of the result."""
+    half_xy, half_tri, segments, pointed = _half_plan(float(length), float(tip_width),
+                                                      float(hmax), planform)
     n = len(half_xy)
     on_axis = np.abs(half_xy[:, 1]) < 1e-12 * max(1.0, length)
     half_xy = half_xy.copy()
@@ -231,7 +281,38 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
         tri = tri[np.all(keep[tri], axis=1)]
         new = np.cumsum(keep) - 1
         xy, tri = xy[keep], new[tri]
-    return xy, tri
+    return xy, tri, _free_edge_points(xy, tri, segments, pointed, float(length))
+
+
+def _free_edge_points(xy, tri, segments, pointed, length):
+    """Vertices and midpoints of the boundary edges lying on the tip curves.
+
+    ``segments`` (k, 2, 2) are the base mesh's edges on the tip curves (upper
+    half); refined boundary edges lie on them too.  A pointed tip adds the
+    point ``(length, 0)``.
+    """
+    edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    boundary = uniq[count == 1]
+    points = []
+    if len(segments) and len(boundary):
+        mid = 0.5 * (xy[boundary[:, 0]] + xy[boundary[:, 1]])
+        m = np.column_stack([mid[:, 0], np.abs(mid[:, 1])])
+        a, b = segments[:, 0], segments[:, 1]
+        ab = b - a
+        t = np.einsum("mkj,kj->mk", m[:, None, :] - a[None], ab) / np.einsum("kj,kj->k", ab, ab)
+        foot = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+        dist = np.linalg.norm(m[:, None, :] - foot, axis=2).min(axis=1)
+        on = dist < 1e-9 * max(1.0, length)
+        e = boundary[on]
+        points += [xy[e[:, 0]], xy[e[:, 1]], mid[on]]
+    if pointed:
+        points.append(np.array([[length, 0.0]]))
+    if not points:
+        return np.zeros((0, 2))
+    pts = np.unique(np.round(np.vstack(points), 13), axis=0)
+    pts.setflags(write=False)
+    return pts
 
 
 def refine_triangulation(xy, tri, times: int = 1):
@@ -276,9 +357,65 @@ def refine_triangulation(xy, tri, times: int = 1):
     return xy, tri
 
 
+def _trapezoid_curves(geo, length, tip_width, hmax):
+    """The trapezoid's outline: lines through its corners; returns (loop, tip curves)."""
+    corners = [(0.0, 0.0), (length, 0.0)]
+    if tip_width > 0:
+        corners.append((length, tip_width / 2))
+    corners.append((0.0, 0.5))
+    pts = [geo.addPoint(x, y, 0.0, hmax) for x, y in corners]
+    lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+    return lines, ([lines[1]] if tip_width > 0 else [])
+
+
+def _planform_curves(geo, length, hmax, planform):
+    """A planform's outline (upper half, counter-clockwise from the origin).
+
+    Axis line, bite arcs (exact circle arcs), what remains of the tip cut,
+    the side (one straight line for a linear profile, else a spline through
+    the profile sampled every ``hmax / 4`` at least), the clamp line.
+    Returns (loop curves, tip curves).
+    """
+    o = planform.outline(length)
+    def pt(x, y):
+        return geo.addPoint(x, y, 0.0, hmax)
+
+    origin = pt(0.0, 0.0)
+    start = pt(o.axis_end, 0.0)
+    loop, tip = [geo.addLine(origin, start)], []
+    for c, r, _xs, xe in o.arcs:
+        ye = math.sqrt(max(r * r - (xe - c) ** 2, 0.0))
+        end = pt(xe, ye)
+        arc = geo.addCircleArc(start, geo.addPoint(c, 0.0, 0.0, hmax), end)
+        loop.append(arc)
+        tip.append(arc)
+        start = end
+    x_end = o.extent
+    if o.cut is not None and o.cut[1] > o.cut[0]:
+        top = pt(length, o.cut[1])
+        line = geo.addLine(start, top)
+        loop.append(line)
+        tip.append(line)
+        start = top
+    clamp_top = pt(0.0, 0.5)
+    if planform.is_linear:
+        loop.append(geo.addLine(start, clamp_top))
+    else:
+        n = max(24, math.ceil(4.0 * x_end / hmax))
+        xs = np.linspace(x_end, 0.0, n + 1)[1:-1]
+        inner = [pt(float(x), float(0.5 * planform.profile(x / length))) for x in xs]
+        loop.append(geo.addSpline([start] + inner + [clamp_top]))
+    loop.append(geo.addLine(clamp_top, origin))
+    return loop, tip
+
+
 @lru_cache(maxsize=32)
-def _half_plan(length: float, tip_width: float, hmax: float):
-    """gmsh triangulation of ``0 <= y <= p(x)/2`` (cached, deterministic)."""
+def _half_plan(length: float, tip_width: float, hmax: float, planform=None):
+    """gmsh triangulation of ``0 <= y <= p(x)/2`` (cached, deterministic).
+
+    Returns ``(xy, tri, segments, pointed)``: vertices, triangles, the
+    mesh edges on the tip curves (k, 2, 2) and whether the tip is a point.
+    """
     # deferred: gmsh (a C library, ~0.1 s to import) is only needed for new meshes
     import gmsh
 
@@ -291,12 +428,13 @@ def _half_plan(length: float, tip_width: float, hmax: float):
         gmsh.option.setNumber("General.NumThreads", 1)
         gmsh.model.add("sheet_plan")
         geo = gmsh.model.geo
-        corners = [(0.0, 0.0), (length, 0.0)]
-        if tip_width > 0:
-            corners.append((length, tip_width / 2))
-        corners.append((0.0, 0.5))
-        pts = [geo.addPoint(x, y, 0.0, hmax) for x, y in corners]
-        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        if planform is None or (planform.is_linear and not planform.bites):
+            b = tip_width if planform is None else planform.tip_width
+            lines, tip_curves = _trapezoid_curves(geo, length, b, hmax)
+            pointed = b <= 0
+        else:
+            lines, tip_curves = _planform_curves(geo, length, hmax, planform)
+            pointed = not planform.bites and planform.tip_width <= 0
         geo.addPlaneSurface([geo.addCurveLoop(lines)])
         geo.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", hmax)
@@ -311,6 +449,14 @@ def _half_plan(length: float, tip_width: float, hmax: float):
         etypes, _, enodes = gmsh.model.mesh.getElements(2)
         (k,) = [i for i, t in enumerate(etypes) if t == 2]
         tri_tags = np.asarray(enodes[k], dtype=np.int64).reshape(-1, 3)
+        segments = []
+        for curve in tip_curves:
+            ltypes, _, lnodes = gmsh.model.mesh.getElements(1, curve)
+            for lt, ln in zip(ltypes, lnodes):
+                if lt == 1:
+                    for a, b in np.asarray(ln, dtype=np.int64).reshape(-1, 2):
+                        segments.append([gmsh.model.mesh.getNode(int(a))[0][:2],
+                                         gmsh.model.mesh.getNode(int(b))[0][:2]])
     finally:
         gmsh.model.remove()
         if initialized_here:
@@ -330,7 +476,9 @@ def _half_plan(length: float, tip_width: float, hmax: float):
     tri[neg] = tri[neg][:, ::-1]
     xy.setflags(write=False)
     tri.setflags(write=False)
-    return xy, tri
+    segments = np.asarray(segments, dtype=float).reshape(-1, 2, 2)
+    segments.setflags(write=False)
+    return xy, tri, segments, bool(pointed)
 
 
 def extrude(xy, tri, thickness: float, layers: int):
@@ -375,7 +523,7 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
     Parameters
     ----------
     sheet : Sheet
-        Only ``length``, ``tip_width`` and ``thickness`` matter.
+        Only ``length``, ``tip_width`` (or ``planform``) and ``thickness`` matter.
     hmax : float
         Target edge length in the plane; layers are at most ``hmax`` thick.
     layers : int, optional
@@ -401,15 +549,16 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
     hmax, layers = _check_mesh_args(sheet, hmax, layers)
     refine = _check_refine(refine)
     return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax,
-                        layers * 2**refine, bool(half), refine)
+                        layers * 2**refine, bool(half), refine,
+                        getattr(sheet, "planform", None))
 
 
 @lru_cache(maxsize=16)
 def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False,
-                 refine=0) -> SheetMesh:
+                 refine=0, planform=None) -> SheetMesh:
     """The mesh; ``layers`` are all the layers (base layers times ``2**refine``)."""
-    xy, tri = plan_triangulation(length, tip_width, hmax, half, refine)
+    xy, tri, free_edge = _plan(length, tip_width, hmax, half, refine, planform)
     p, t = extrude(xy, tri, thickness, layers)
     return SheetMesh(mesh=MeshTet(p, t), length=length, tip_width=tip_width,
                      thickness=thickness, hmax=hmax, layers=layers, half=bool(half),
-                     refine=refine)
+                     refine=refine, planform=planform, free_edge=free_edge)

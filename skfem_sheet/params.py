@@ -7,10 +7,24 @@ width ``a`` and energy densities by ``rho g a`` (paper, section
 """
 from __future__ import annotations
 
+import csv
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, field, fields
+from functools import lru_cache
 
-__all__ = ["Sheet", "ParameterError", "check_finite", "check_range", "POISSON_RATIO"]
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+from scipy.optimize import brentq
+
+__all__ = [
+    "POISSON_RATIO",
+    "ParameterError",
+    "Planform",
+    "Sheet",
+    "check_finite",
+    "check_range",
+    "read_planform_csv",
+]
 
 
 class ParameterError(ValueError):
@@ -56,9 +70,369 @@ def check_range(name: str, value, lo=None, hi=None, *, lo_open=False,
     return x
 
 
+# -- plan-view outlines ----------------------------------------------------------------
+#: Samples used to locate where bites meet the sides of a planform.
+_N_SCAN = 4001
+
+
+def _samples(name, values) -> np.ndarray:
+    """A 1-D float array of at least two finite values, or a ParameterError naming ``name``."""
+    try:
+        a = np.asarray(values, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be numbers, got {values!r}") from None
+    if a.size < 2:
+        raise ParameterError(f"{name} must have at least 2 samples, got {a.size}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        raise ParameterError(f"{name} must be finite, got {float(a[bad][0])!r} at sample {int(np.argmax(bad))}")
+    return a
+
+
+@lru_cache(maxsize=64)
+def _pchip(xi: tuple, width: tuple):
+    """The PCHIP interpolant of the samples, its derivative and its antiderivative (cached)."""
+    f = PchipInterpolator(np.asarray(xi), np.asarray(width), extrapolate=True)
+    return f, f.derivative(), f.antiderivative()
+
+
+@dataclass(frozen=True)
+class Planform:
+    """Plan view of a sheet: a width profile p on x/L in [0, 1] and optional tip bites.
+
+    The sheet occupies ``0 <= x <= L``, ``|y| <= p(x/L)/2`` (mirror-symmetric
+    about the axis ``y = 0``), minus the bites.  The profile is the
+    shape-preserving cubic (PCHIP) through the samples: it reproduces linear
+    data exactly (a sampled trapezoid *is* the trapezoid), never overshoots, and
+    stays ``>= 0`` between samples ``>= 0``.  Because it is defined on ``x/L``, a
+    sheet of another length (:meth:`Sheet.replace`, continuation in L) has the
+    profile stretched along x.
+
+    Bites are circles centred on the axis, radii in units of ``a``: the first is
+    centred at the tip ``x = L``, each next one at the innermost point the
+    previous one left on the axis (``c_1 = L``, ``c_{k+1} = c_k - r_k``), the way
+    one eats a slice of pizza.  The bites' radii do not stretch with ``L``
+    (but a mesh stretched without remeshing, ``SheetProblem.with_length``,
+    stretches its bites into ellipses until the next remesh).
+
+    Parameters
+    ----------
+    xi : tuple of float
+        Sample abscissae x/L, strictly increasing from 0 to 1.
+    width : tuple of float
+        p at the samples (units of the base width a): ``width[0] = 1``, all
+        ``>= 0``, and ``> 0`` except at the tip (a zero inside would cut the
+        sheet in two).
+    bites : tuple of float, default ()
+        Radii of the successive circular bites at the tip.
+    length : float, optional
+        The length L the samples were given at (:meth:`from_samples`,
+        :func:`read_planform_csv`); only the default length of
+        :meth:`Sheet.from_planform`.  Not part of the geometry (not compared).
+
+    Examples
+    --------
+    >>> P = Planform.trapezoid(1.5)
+    >>> float(P.profile(0.5))
+    1.25
+    >>> Planform.from_samples([0, 2, 4], [1, 2, 1]).length
+    4.0
+    >>> try:
+    ...     Planform.from_samples([0, 1], [2, 1])
+    ... except ParameterError as err:
+    ...     print(err)
+    planform width at x = 0 must be 1 (p is in units of the base width a, p(0) = 1), got 2.0
+    """
+
+    xi: tuple
+    width: tuple
+    bites: tuple = ()
+    length: float | None = field(default=None, compare=False)
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        xi = _samples("planform x", self.xi)
+        w = _samples("planform width", self.width)
+        if xi.size != w.size:
+            raise ParameterError(f"planform x and width must have the same number of samples, "
+                                 f"got {xi.size} and {w.size}")
+        steps = np.diff(xi)
+        if np.any(steps <= 0):
+            k = int(np.argmax(steps <= 0))
+            raise ParameterError(f"planform x must be strictly increasing, got x[{k}] = {float(xi[k])!r} "
+                                 f"then x[{k + 1}] = {float(xi[k + 1])!r}")
+        if abs(xi[0]) > 1e-12 or abs(xi[-1] - 1.0) > 1e-12:
+            raise ParameterError(f"planform xi = x/L must run from 0 to 1, got [{float(xi[0])!r}, {float(xi[-1])!r}] "
+                                 "(use Planform.from_samples for samples in x)")
+        xi[0], xi[-1] = 0.0, 1.0
+        if abs(w[0] - 1.0) > 1e-9:
+            raise ParameterError("planform width at x = 0 must be 1 (p is in units of the base "
+                                 f"width a, p(0) = 1), got {float(w[0])!r}")
+        w[0] = 1.0
+        if np.any(w < 0):
+            k = int(np.argmax(w < 0))
+            raise ParameterError(f"planform width must be >= 0, got {float(w[k])!r} at x/L = {xi[k]:g}")
+        if np.any(w[:-1] == 0):
+            k = int(np.argmax(w[:-1] == 0))
+            raise ParameterError(f"planform width must be > 0 except at the tip x = L (a zero width "
+                                 f"inside pinches the sheet in two), got 0 at x/L = {xi[k]:g}")
+        try:
+            bites = tuple(float(r) for r in np.asarray(self.bites, dtype=float).ravel())
+        except (TypeError, ValueError):
+            raise ParameterError(f"planform bites must be radii (numbers), got {self.bites!r}") from None
+        for r in bites:
+            if not (math.isfinite(r) and r > 0):
+                raise ParameterError(f"planform bites must be radii in (0, inf), got {r!r}")
+        if self.length is not None:
+            set_(self, "length", check_range("planform length", self.length, 0, 100, lo_open=True))
+        set_(self, "xi", tuple(float(v) for v in xi))
+        set_(self, "width", tuple(float(v) for v in w))
+        set_(self, "bites", bites)
+
+    # -- construction --------------------------------------------------------------
+    @classmethod
+    def from_samples(cls, x, width, bites=()) -> Planform:
+        """Profile samples at ``x`` from 0 to L (L = the last x, kept as :attr:`length`)."""
+        x = _samples("planform x", x)
+        if abs(x[0]) > 1e-12 * max(1.0, abs(x[-1])):
+            raise ParameterError(f"planform x must start at the clamp x = 0, got {float(x[0])!r}")
+        if not x[-1] > 0:
+            raise ParameterError(f"planform x must end at the length L > 0, got {float(x[-1])!r}")
+        return cls(tuple(x / x[-1]), tuple(_samples("planform width", width)), tuple(bites),
+                   length=float(x[-1]))
+
+    @classmethod
+    def from_function(cls, f, n: int = 65, bites=(), length=None) -> Planform:
+        """Sample ``p = f(xi)`` (xi = x/L in [0, 1]) at ``n`` points, denser near both ends.
+
+        With ``length``, ``f`` is a function of x in [0, length] instead (and
+        ``length`` is kept as :attr:`length`).
+
+        Examples
+        --------
+        >>> leaf = Planform.from_function(lambda s: 1 + 1.2 * s - 2.2 * s**2)
+        >>> round(float(leaf.profile(0.5)), 6), leaf.width[-1] == 0.0
+        (1.05, True)
+        """
+        n = int(n)
+        if n < 2:
+            raise ParameterError(f"n must be an integer in [2, inf), got {n!r}")
+        xi = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n)))   # Chebyshev-Lobatto
+        xi[0], xi[-1] = 0.0, 1.0
+        if length is not None:
+            length = check_range("length", length, 0, 100, lo_open=True)
+        try:
+            w = np.array([float(f(s if length is None else s * length)) for s in xi])
+        except (TypeError, ValueError) as err:
+            raise ParameterError(f"planform function must return a number, got: {err}") from None
+        w[np.abs(w) < 1e-14] = 0.0
+        return cls(tuple(xi), tuple(w), tuple(bites), length)
+
+    @classmethod
+    def trapezoid(cls, tip_width: float, bites=()) -> Planform:
+        """The trapezoid p = 1 + (b - 1) x/L (any ``b >= 0``, also flaring ``b > 1``)."""
+        b = check_range("tip_width", tip_width, 0, 100)
+        return cls((0.0, 1.0), (1.0, b), tuple(bites))
+
+    def replace_bites(self, bites) -> Planform:
+        """The same profile with other bites."""
+        return Planform(self.xi, self.width, tuple(bites), self.length)
+
+    def to_dict(self) -> dict:
+        d = {"xi": list(self.xi), "width": list(self.width), "bites": list(self.bites)}
+        if self.length is not None:
+            d["length"] = self.length
+        return d
+
+    @classmethod
+    def from_dict(cls, d) -> Planform:
+        if isinstance(d, Planform):
+            return d
+        if not isinstance(d, dict) or not {"xi", "width"} <= set(d):
+            raise ParameterError(f"planform must be a Planform or a dict with xi and width, got {d!r}")
+        return cls(tuple(d["xi"]), tuple(d["width"]), tuple(d.get("bites", ())), d.get("length"))
+
+    # -- the profile -----------------------------------------------------------------
+    @property
+    def tip_width(self) -> float:
+        """p(1) = b/a, the profile's width at x = L (before any bite)."""
+        return self.width[-1]
+
+    @property
+    def is_linear(self) -> bool:
+        """The samples lie on one straight line (a trapezoid)."""
+        xi, w = np.asarray(self.xi), np.asarray(self.width)
+        return bool(np.all(np.abs(w - (1.0 + (w[-1] - 1.0) * xi)) <= 1e-12))
+
+    def profile(self, s):
+        """p at ``s = x/L`` (PCHIP; linear continuation outside [0, 1])."""
+        s = np.asarray(s, dtype=float)
+        f, df, _ = _pchip(self.xi, self.width)
+        inside = np.clip(s, 0.0, 1.0)
+        out = f(inside) + df(inside) * (s - inside)
+        return out if out.ndim else float(out)
+
+    def profile_slope(self, s):
+        """dp/d(x/L) at ``s`` (constant continuation outside [0, 1])."""
+        s = np.asarray(s, dtype=float)
+        out = _pchip(self.xi, self.width)[1](np.clip(s, 0.0, 1.0))
+        return out if out.ndim else float(out)
+
+    def profile_integral(self, s):
+        """int_0^s p(sigma) d sigma (s in [0, 1])."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+        out = _pchip(self.xi, self.width)[2](s)
+        return out if out.ndim else float(out)
+
+    def outline(self, length: float) -> Outline:
+        """The bite geometry of the sheet of this planform at ``length`` (validated)."""
+        return _outline(self, float(length))
+
+
+@dataclass(frozen=True)
+class Outline:
+    """Where the bites of a :class:`Planform` cut a sheet of one length.
+
+    Attributes
+    ----------
+    length : float
+        L.
+    centres, radii : tuple of float
+        The bite circles (centred on the axis).
+    axis_end : float
+        x where the outline leaves the axis: L without bites (or a pointed
+        tip), else the innermost bite point ``L - sum(radii)``.
+    extent : float
+        x of the farthest material point: L, or where the bites meet the sides.
+    arcs : tuple of (centre, radius, x_start, x_stop)
+        The lower envelope of the bites in the upper half, from the axis to
+        ``extent``, in increasing x (one piece per circle that shows).
+    cut : tuple (y_low, y_high) or None
+        The part of the straight tip cut ``x = L`` that remains (half plane).
+    """
+
+    length: float
+    centres: tuple
+    radii: tuple
+    axis_end: float
+    extent: float
+    arcs: tuple
+    cut: tuple | None
+
+    def lower(self, x):
+        """Inner edge of the upper half: ``max_k sqrt(r_k^2 - (x - c_k)^2)`` (0 off the bites)."""
+        x = np.asarray(x, dtype=float)
+        out = np.zeros_like(x)
+        for c, r in zip(self.centres, self.radii):
+            out = np.maximum(out, np.sqrt(np.clip(r * r - (x - c) ** 2, 0.0, None)))
+        return out
+
+    def lower_slope(self, x):
+        """d lower / dx (infinite only at the axis point of a bite, where it is not used)."""
+        x = np.asarray(x, dtype=float)
+        out = np.zeros_like(x)
+        for c, r, a, b in self.arcs:
+            on = (x > a) & (x <= b)
+            u = x[on] - c
+            out[on] = -u / np.sqrt(np.clip(r * r - u * u, 1e-300, None))
+        return out
+
+    def lower_integral(self, x):
+        """int_0^x lower, piecewise in closed form."""
+        x = np.asarray(x, dtype=float)
+        out = np.zeros_like(x)
+        for c, r, a, b in self.arcs:
+            out += _circle_area(np.clip(x, a, b), c, r) - _circle_area(a, c, r)
+        return out
+
+
+def _circle_area(x, c, r):
+    """An antiderivative of sqrt(r^2 - (x - c)^2)."""
+    u = np.clip(x - c, -r, r)
+    return 0.5 * (u * np.sqrt(np.clip(r * r - u * u, 0.0, None)) + r * r * np.arcsin(u / r))
+
+
+@lru_cache(maxsize=64)
+def _outline(planform: Planform, L: float) -> Outline:
+    """Locate the bites of ``planform`` on a sheet of length ``L`` (see :class:`Outline`)."""
+    if not planform.bites:
+        cut = (0.0, 0.5 * planform.tip_width) if planform.tip_width > 0 else None
+        return Outline(L, (), (), L, L, (), cut)
+    radii = planform.bites
+    centres = tuple(L - sum(radii[:k]) for k in range(len(radii)))
+    x0 = min(c - r for c, r in zip(centres, radii))
+    if x0 <= 1e-9 * L:
+        raise ParameterError(
+            f"planform bites must stay clear of the clamp: their radii sum to {sum(radii):g}, "
+            f"which must be < the length {L:g} (the outline would self-intersect)")
+    base = Outline(L, centres, radii, x0, L, (), None)
+
+    def gap(x):
+        return 0.5 * planform.profile(x / L) - float(base.lower(x))
+
+    xs = np.linspace(x0, L, _N_SCAN)
+    g = 0.5 * planform.profile(xs / L) - base.lower(xs)
+    tol = 1e-12
+    if g[0] <= tol:
+        raise ParameterError(f"planform bites must leave material at the axis point x = {x0:g}")
+    closed = g <= tol
+    if closed.any():
+        k = int(np.argmax(closed))
+        extent = brentq(gap, xs[k - 1], xs[k], xtol=1e-15, rtol=1e-15) if g[k] < -tol else xs[k]
+        if np.any(g[k:] > 1e-9):
+            j = k + int(np.argmax(g[k:] > 1e-9))
+            raise ParameterError(
+                f"planform bites cut the outline into pieces (it self-intersects): the bites "
+                f"meet the sides at x = {extent:g}, but material is left at x = {xs[j]:g}")
+        cut = None
+    else:
+        extent = L
+        cut = (float(base.lower(L)), 0.5 * planform.tip_width)
+    # lower envelope: which circle is on top, piece by piece
+    xe = np.linspace(x0, extent, _N_SCAN)
+    vals = np.stack([np.sqrt(np.clip(r * r - (xe - c) ** 2, 0.0, None))
+                     for c, r in zip(centres, radii)])
+    vals[:, 0] = [0.0 if abs(c - r - x0) < 1e-12 else -1.0 for c, r in zip(centres, radii)]
+    active = np.argmax(vals, axis=0)
+    arcs, start, cur = [], x0, int(active[0])
+    for j in range(1, len(xe)):
+        nxt = int(active[j])
+        if nxt != cur:
+            ci, ri, cj, rj = centres[cur], radii[cur], centres[nxt], radii[nxt]
+            xc = (rj * rj - ri * ri + ci * ci - cj * cj) / (2.0 * (ci - cj))
+            arcs.append((ci, ri, start, xc))
+            start, cur = xc, nxt
+    arcs.append((centres[cur], radii[cur], start, extent))
+    return Outline(L, centres, radii, x0, float(extent), tuple(arcs), cut)
+
+
+def read_planform_csv(path) -> Planform:
+    """Read a planform from a CSV file with columns ``x,width`` (header required).
+
+    ``x`` runs from the clamp 0 to the length L (L is the last x, kept as
+    :attr:`Planform.length`), ``width`` is p(x) in units of the base width
+    (so the first width is 1).  Build the sheet with
+    ``Sheet.from_planform(read_planform_csv(path), curvature=...)``.
+    """
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except OSError as err:
+        raise ParameterError(f"planform file {path!s} cannot be read: {err}") from None
+    if not rows or not {"x", "width"} <= set(rows[0]):
+        raise ParameterError(f"planform file {path!s} must have a header with columns x,width")
+    try:
+        x = [float(r["x"]) for r in rows]
+        w = [float(r["width"]) for r in rows]
+    except (TypeError, ValueError) as err:
+        raise ParameterError(f"planform file {path!s} has a non-numeric x or width: {err}") from None
+    return Planform.from_samples(x, w)
+
+
 @dataclass(frozen=True)
 class Sheet:
-    """A trapezoidal sheet clamped on a circular arc, in units of its base width.
+    """A sheet clamped on a circular arc, in units of its base width: a trapezoid,
+    or any :class:`Planform`.
 
     Parameters
     ----------
@@ -72,6 +446,13 @@ class Sheet:
         h/a, as in the paper's experiments.
     modulus : float, default 735.0
         E/(rho g a), the dimensionless Young's modulus (paper: 735).
+    planform : Planform or callable, optional
+        Any plan view instead of the trapezoid (a width profile on x/L and tip
+        bites; a dict from :meth:`to_dict` is accepted, and a callable p(x) on
+        [0, L] is sampled by :meth:`Planform.from_function`).  ``tip_width`` is then
+        the profile's width at x = L (leave it at the default or pass that
+        value; it may exceed 1).  Without a planform the sheet is the
+        trapezoid exactly as before.
 
     Examples
     --------
@@ -87,14 +468,31 @@ class Sheet:
     curvature: float = 0.0
     thickness: float = 0.03
     modulus: float = 735.0
+    planform: Planform | None = None
 
     def __post_init__(self):
         # Validate up front, with a message naming the parameter and the range.
         set_ = object.__setattr__
         set_(self, "length", check_range("length", self.length, 0, 100, lo_open=True))
-        set_(self, "tip_width", check_range(
-            "tip_width", self.tip_width, 0, 1,
-            hint="b/a: 1 is a rectangle, 0 a triangle; wider tips are not supported"))
+        if self.planform is None:
+            set_(self, "tip_width", check_range(
+                "tip_width", self.tip_width, 0, 1,
+                hint="b/a: 1 is a rectangle, 0 a triangle; wider tips (b > a) need a planform"))
+        else:
+            if callable(self.planform) and not isinstance(self.planform, Planform):
+                # p(x) on [0, L], sampled once (the sheet stays hashable and picklable)
+                set_(self, "planform", Planform.from_function(self.planform, length=self.length))
+            pf = Planform.from_dict(self.planform)
+            if pf.length is not None:   # the Sheet's length is the length
+                pf = Planform(pf.xi, pf.width, pf.bites)
+            b = check_finite("tip_width", self.tip_width)
+            if b != 1.0 and b != pf.tip_width:
+                raise ParameterError(
+                    f"tip_width must be the planform's width at x = L ({pf.tip_width:g}) or left "
+                    f"at its default, got {self.tip_width!r}")
+            set_(self, "planform", pf)
+            set_(self, "tip_width", pf.tip_width)
+            pf.outline(self.length)          # bites checked against this length
         set_(self, "curvature", check_range(
             "curvature", self.curvature, 0, MAX_CURVATURE, hi_open=True,
             hint="a/R; at 2*pi the clamped base would wrap onto itself"))
@@ -130,23 +528,104 @@ class Sheet:
 
     @property
     def area(self) -> float:
-        """A/a^2, the plan-view area of the trapezoid."""
-        return 0.5 * (1.0 + self.tip_width) * self.length
+        """A/a^2, the plan-view area (of the trapezoid, or of the planform)."""
+        if self.planform is None:
+            return 0.5 * (1.0 + self.tip_width) * self.length
+        return float(self.width_integral(0.0))
+
+    @property
+    def outline(self) -> Outline:
+        """Where the bites cut the sheet (:class:`Outline`; the trapezoid has none)."""
+        pf = self.planform if self.planform is not None else Planform.trapezoid(self.tip_width)
+        return pf.outline(self.length)
+
+    @property
+    def extent(self) -> float:
+        """x of the farthest material point: L, or less where bites meet the sides.
+
+        The reduced (one-dimensional) models run over ``0 <= s <= extent``.
+        """
+        return self.length if self.planform is None else self.outline.extent
 
     def width(self, x):
-        """Width profile p(x) = 1 + (b - 1) x / L (ERRATA: the /L is missing in the SI)."""
-        return 1.0 + (self.tip_width - 1.0) * x / self.length
+        """Width p(x) of the cross-section at x.
 
-    def replace(self, **changes) -> "Sheet":
-        """A copy with some parameters changed (validated again)."""
-        return Sheet(**{**asdict(self), **changes})
+        For the trapezoid p(x) = 1 + (b - 1) x / L (ERRATA: the /L is missing in
+        the SI).  For a planform: the profile p(x/L) minus what the bites take
+        (twice the inner edge of the upper half), 0 beyond :attr:`extent`.
+        """
+        if self.planform is None:
+            return 1.0 + (self.tip_width - 1.0) * x / self.length
+        x = np.asarray(x, dtype=float)
+        out = self.planform.profile(x / self.length)
+        if self.planform.bites:
+            out = np.where(x <= self.extent,
+                           np.maximum(out - 2.0 * self.outline.lower(x), 0.0), 0.0)
+        return out if np.ndim(out) else float(out)
+
+    def width_slope(self, x):
+        """dp/dx of :meth:`width`."""
+        if self.planform is None:
+            return np.zeros_like(np.asarray(x, dtype=float)) + (self.tip_width - 1.0) / self.length
+        x = np.asarray(x, dtype=float)
+        out = self.planform.profile_slope(x / self.length) / self.length
+        if self.planform.bites:
+            out = np.where(x <= self.extent, out - 2.0 * self.outline.lower_slope(x), 0.0)
+        return out if np.ndim(out) else float(out)
+
+    def width_integral(self, x):
+        """I(x) = int_x^extent p, the area beyond x (the load's lever in eq. phODE)."""
+        L = self.length
+        if self.planform is None:
+            S = np.asarray(x, dtype=float) / L
+            return L * ((1.0 - S) + 0.5 * (self.tip_width - 1.0) * (1.0 - S**2))
+        x = np.clip(np.asarray(x, dtype=float), 0.0, self.extent)
+        pf, e = self.planform, self.extent
+        out = L * (pf.profile_integral(e / L) - pf.profile_integral(x / L))
+        if pf.bites:
+            o = self.outline
+            out = out - 2.0 * (o.lower_integral(e) - o.lower_integral(x))
+        return out if np.ndim(out) else float(out)
+
+    def replace(self, **changes) -> Sheet:
+        """A copy with some parameters changed (validated again).
+
+        With a planform, changing ``length`` stretches the profile (it lives
+        on x/L), and ``tip_width`` follows the planform.
+        """
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        if "planform" in changes or self.planform is not None:
+            values["tip_width"] = 1.0
+        return Sheet(**{**values, **changes})
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The parameters as a dict (``Sheet(**d)`` rebuilds the sheet); a planform
+        appears as ``{"xi": [...], "width": [...], "bites": [...]}``, the
+        trapezoid has no ``planform`` key."""
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "planform"}
+        if self.planform is not None:
+            d["planform"] = self.planform.to_dict()
+        return d
+
+    @classmethod
+    def from_planform(cls, planform: Planform, length=None, **params) -> Sheet:
+        """A sheet of ``planform``, of length ``length`` (default: ``planform.length``).
+
+        Examples
+        --------
+        >>> s = Sheet.from_planform(Planform.from_samples([0, 1.2], [1, 1.5]), curvature=2.5)
+        >>> s.length, s.tip_width, round(s.area, 12)
+        (1.2, 1.5, 1.5)
+        """
+        if length is None:
+            if planform.length is None:
+                raise ParameterError("length must be given for a planform without a length")
+            length = planform.length
+        return cls(length=length, planform=planform, **params)
 
     @classmethod
     def from_si(cls, base_width, length, tip_width, thickness, radius,
-                youngs_modulus, density, gravity=9.81) -> "Sheet":
+                youngs_modulus, density, gravity=9.81) -> Sheet:
         """Build a dimensionless sheet from SI quantities.
 
         Parameters
@@ -181,6 +660,13 @@ class Sheet:
         E = check_range("youngs_modulus", youngs_modulus, 0, None, lo_open=True)
         rho = check_range("density", density, 0, None, lo_open=True)
         g = check_range("gravity", gravity, 0, None, lo_open=True)
+        weight = rho * g * a
+        if not (weight > 0 and math.isfinite(weight) and math.isfinite(E / weight)):
+            # each factor is valid, but rho g a under- or overflows
+            raise ParameterError(
+                f"gravity must make rho g a (density * gravity * base_width) a positive finite "
+                f"number that E/(rho g a) stays finite for, got {gravity!r} "
+                f"(rho g a = {weight!r})")
         return cls(length=length / a, tip_width=tip_width / a,
                    curvature=0.0 if math.isinf(r) else a / r,
-                   thickness=thickness / a, modulus=E / (rho * g * a))
+                   thickness=thickness / a, modulus=E / weight)

@@ -65,3 +65,29 @@ def test_stability_unknown_from_a_real_perturbed_factorisation(problem):
     coarse.factorize(K)
     assert coarse.perturbed_pivots > 0 and coarse.inertia() is None
     assert stability(problem, coarse) == (None, None)
+
+
+def test_tip_deflection_is_the_old_midline_formula_for_a_trapezoid(problem):
+    # the free edge of a trapezoid is the mid-line x = L, so d is what it always was
+    from _states import random_state
+    w = random_state(problem, seed=3, amp=1e-2)
+    U, _ = problem.split(w)
+    z = problem.nodes[:, 2] + U[:, 2]
+    old = z[midline_nodes(problem, 0.0)].min() - z[midline_nodes(problem, problem.length)].min()
+    assert tip_deflection(problem, w) == old
+
+
+def test_tip_deflection_on_a_bitten_edge_is_its_lowest_point():
+    from skfem_sheet.mesh import sheet_mesh
+    from skfem_sheet.params import Planform, Sheet
+    from skfem_sheet.problem import SheetProblem
+    s = Sheet.from_planform(Planform.trapezoid(1.0, bites=(0.3,)), length=0.8)
+    p = SheetProblem(s, sheet_mesh(s, 0.2, layers=2, half=True))
+    x = p.nodes[:, 0]
+    w = np.zeros(p.ndof)
+    # drooping as x^2: the lowest free-edge points are on what is left of the cut x = L
+    w[2: p.nu_dof: 3] = -x**2
+    assert tip_deflection(p, w) == pytest.approx(0.8**2, rel=1e-12)
+    # rising as x^2: the lowest one is where the bite leaves the axis, x = L - r
+    w[2: p.nu_dof: 3] = x**2
+    assert tip_deflection(p, w) == pytest.approx(-0.5**2, rel=1e-12)

@@ -49,3 +49,9 @@ def test_width_profile_and_replace():
     assert t.curvature == 1.0 and t.length == 2.0 and s.curvature == 0.0
     with pytest.raises(ValueError, match="curvature"):
         s.replace(curvature=-1)
+
+
+def test_from_si_refuses_an_underflowing_weight():
+    # every factor is valid, but rho g a underflows to 0: a ParameterError, not a ZeroDivisionError
+    with pytest.raises(ValueError, match="^gravity must"):
+        Sheet.from_si(0.004, 1.0, 0.0, 1e-5, math.inf, 1e3, 100.0, gravity=5e-324)

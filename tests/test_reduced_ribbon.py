@@ -3,12 +3,24 @@ import numpy as np
 import pytest
 
 from skfem_sheet.params import Sheet
-from skfem_sheet.reduced import (detect_jumps, elastica, plot_map, ribbon,
-                                 ribbon_continuation, ribbon_energy_terms, ribbon_map,
-                                 write_map_csv)
-from skfem_sheet.reduced._ribbon_fem import (energy_gradient_hessian, make_mesh,
-                                             make_operators, minimise, total_energy)
-from skfem_sheet.reduced._ribbon_kernels import energy_derivatives, energy_density, energy_terms
+from skfem_sheet.reduced import (
+    detect_jumps,
+    elastica,
+    plot_map,
+    ribbon,
+    ribbon_continuation,
+    ribbon_energy_terms,
+    ribbon_map,
+    write_map_csv,
+)
+from skfem_sheet.reduced._ribbon_fem import (
+    energy_gradient_hessian,
+    make_mesh,
+    make_operators,
+    minimise,
+    total_energy,
+)
+from skfem_sheet.reduced._ribbon_kernels import energy_density, energy_derivatives, energy_terms
 from skfem_sheet.reduced.ribbon import DEFAULT_ELEMENTS, _deflection, _free_mask
 
 NU = 0.5

@@ -3,17 +3,31 @@
 Deflection (paper, caption of Fig. 1): the signed vertical distance from the
 lowest point of the clamped edge to that of the free edge, positive downward::
 
-    d = min_y z(0, y, 0) - min_y z(L, y, 0)
+    d = min_{clamp} z  -  min_{free edge} z
 
-evaluated on the deformed mid-lines ``z = 0`` of the clamped face ``x = 0`` and
-of the free edge ``x = L`` (for a triangle the free edge is the tip point).
-Both mid-lines carry quadratic nodes of the mesh (see :mod:`skfem_sheet.mesh`).
+on the deformed mid-surface ``z = 0``.  The clamped edge is the mid-line of
+the face ``x = 0``.  The free edge is the tip outline, the boundary opposite
+the clamp: for a trapezoid the mid-line of the face ``x = L`` (for a triangle
+its tip point), for a :class:`~skfem_sheet.params.Planform` what remains of
+the cut ``x = L`` together with the bite arcs (the sides ``|y| = p(x)/2`` are
+not part of it).  Its points are recorded by the mesh
+(:attr:`skfem_sheet.mesh.SheetMesh.free_edge`: the vertices and edge
+midpoints of the plan's boundary edges on the tip curves), and their
+mid-plane nodes are :func:`free_edge_nodes`; for a trapezoid these are
+exactly the nodes of the mid-line ``x = L``, so d is the value it always was.
+Both edges carry quadratic nodes of the mesh (see :mod:`skfem_sheet.mesh`).
 """
 from __future__ import annotations
 
-import numpy as np
+import weakref
 
-__all__ = ["midline_nodes", "midline_heights", "tip_deflection"]
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["free_edge_nodes", "midline_heights", "midline_nodes", "tip_deflection"]
+
+#: free-edge node indices per mesh (they do not change when a space is stretched)
+_FREE_EDGE = weakref.WeakKeyDictionary()
 
 
 def midline_nodes(problem, x):
@@ -34,8 +48,37 @@ def midline_heights(problem, w, x):
     return X[:, 1], X[:, 2] + U[idx, 2]
 
 
+def free_edge_nodes(problem):
+    """Indices of the mid-plane nodes on the free edge (the tip outline), sorted by y.
+
+    A mesh without a recorded free edge (built by hand) uses the mid-line
+    ``x = length``.  A stretched problem (``with_length``) has the same nodes.
+    """
+    sm = problem.sheet_mesh
+    edge = getattr(sm, "free_edge", None)
+    if edge is None:
+        return midline_nodes(problem, problem.length)
+    idx = _FREE_EDGE.get(sm)
+    if idx is None:
+        X = problem.nodes
+        tol = 1e-9 * max(1.0, sm.length)
+        cand = np.flatnonzero(np.abs(X[:, 2]) < tol)
+        ref = np.column_stack([X[cand, 0] * (sm.length / problem.length), X[cand, 1]])
+        dist, _ = cKDTree(np.asarray(edge)).query(ref)
+        idx = cand[dist < tol]
+        if len(idx) == 0:
+            raise RuntimeError("no mesh node on the free edge")
+        idx = idx[np.argsort(X[idx, 1], kind="stable")]
+        idx.setflags(write=False)
+        _FREE_EDGE[sm] = idx
+    return idx
+
+
 def tip_deflection(problem, w):
-    """Signed tip deflection d (positive downward)."""
+    """Signed tip deflection d (positive downward): lowest clamp point minus lowest
+    free-edge point, on the deformed mid-surface (see the module docstring)."""
     _, zc = midline_heights(problem, w, 0.0)
-    _, zf = midline_heights(problem, w, problem.length)
+    idx = free_edge_nodes(problem)
+    U, _ = problem.split(w)
+    zf = problem.nodes[idx, 2] + U[idx, 2]
     return float(zc.min() - zf.min())

@@ -23,15 +23,26 @@ Examples
 >>> round(persistence_length(Sheet(length=5.0, curvature=2.5)).persistence_length, 4)
 1.0911
 """
-from skfem_sheet.reduced.cantilever import (CantileverResult, cantilever_coefficient,
-                                            cantilever_deflection)
-from skfem_sheet.reduced.elastica import (ElasticaResult, elastica,
-                                          elastica_linear_deflection)
+from skfem_sheet.reduced.cantilever import (
+                                            CantileverResult,
+                                            cantilever_coefficient,
+                                            cantilever_deflection,
+)
+from skfem_sheet.reduced.elastica import ElasticaResult, elastica, elastica_linear_deflection
 from skfem_sheet.reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
-from skfem_sheet.reduced.persistence import (PersistenceResult, persistence_length,
-                                             persistence_length_asymptotic)
-from skfem_sheet.reduced.ribbon import (ContinuationResult, RibbonResult, detect_jumps,
-                                        ribbon, ribbon_continuation, ribbon_energy_terms)
+from skfem_sheet.reduced.persistence import (
+                                            PersistenceResult,
+                                            persistence_length,
+                                            persistence_length_asymptotic,
+)
+from skfem_sheet.reduced.ribbon import (
+                                            ContinuationResult,
+                                            RibbonResult,
+                                            detect_jumps,
+                                            ribbon,
+                                            ribbon_continuation,
+                                            ribbon_energy_terms,
+)
 
 __all__ = [
     "CantileverResult", "ContinuationResult", "ElasticaResult", "PersistenceResult",

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from skfem_sheet.params import ParameterError, POISSON_RATIO, Sheet
+from skfem_sheet.params import POISSON_RATIO, ParameterError, Sheet
 
-__all__ = ["as_sheet", "weight_per_area", "width_profile", "integrated_profile",
-           "POISSON_RATIO"]
+__all__ = ["POISSON_RATIO", "as_sheet", "integrated_profile", "weight_per_area",
+           "width_profile"]
 
 
 def as_sheet(sheet) -> Sheet:
@@ -26,7 +26,7 @@ def weight_per_area(sheet: Sheet) -> float:
     return float(sheet.thickness)
 
 
-def width_profile(S, tip_width):
+def width_profile(S, tip_width):  # the trapezoid's; a planform's is Sheet.width
     """p = 1 + (b - 1) S on the unit interval S = s/L (ERRATA: p(x) = a + (b-a) x/L)."""
     return 1.0 + (tip_width - 1.0) * np.asarray(S, dtype=float)
 

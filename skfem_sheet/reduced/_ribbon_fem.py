@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
-from skfem_sheet.reduced._ribbon_kernels import energy_derivatives, energy_density
+from skfem_sheet.reduced._ribbon_kernels import energy_density, energy_derivatives
 
 __all__ = ["Mesh", "make_mesh", "Operators", "make_operators", "total_energy",
            "energy_gradient_hessian", "minimise"]
@@ -80,12 +80,20 @@ class Operators:
 
 
 def make_operators(mesh: Mesh, length, tip_width, weight_per_area, Y, D, nu,
-                   gravity_scale=1.0) -> Operators:
-    """Assemble B with q = B x_e for a sheet of the given length and tip width."""
+                   gravity_scale=1.0, profile=None) -> Operators:
+    """Assemble B with q = B x_e for a sheet of the given length and tip width.
+
+    ``profile`` (optional) replaces the linear width: a function of s returning
+    ``(p, dp/ds, I)`` with I(s) = int_s^L p (``length`` is then the end of the
+    material, ``tip_width`` unused).
+    """
     L, b = float(length), float(tip_width)
     S = mesh.S_gauss
-    p = 1.0 + (b - 1.0) * S
-    dp = (b - 1.0) / L
+    if profile is None:
+        p = 1.0 + (b - 1.0) * S
+        dp = (b - 1.0) / L
+    else:
+        p, dp, I_planform = profile(L * S)
     ne, nq = S.shape
     B = np.zeros((ne, nq, 5, 8))
     B[:, :, 0, :4] = mesh.N
@@ -95,7 +103,7 @@ def make_operators(mesh: Mesh, length, tip_width, weight_per_area, Y, D, nu,
     B[:, :, 4, 4:] = mesh.N
     B[:, :, 4, :4] = (p**2 / 24.0)[..., None] * mesh.dN / L + (p * dp / 12.0)[..., None] * mesh.N
     weight = np.broadcast_to(mesh.w_gauss * L / ne, S.shape)
-    I = L * ((1.0 - S) + 0.5 * (b - 1.0) * (1.0 - S**2))
+    I = L * ((1.0 - S) + 0.5 * (b - 1.0) * (1.0 - S**2)) if profile is None else I_planform
     return Operators(B, weight, p, gravity_scale * weight_per_area * I, mesh.dofs, Y, D, nu)
 
 

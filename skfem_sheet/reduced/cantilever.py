@@ -33,8 +33,12 @@ import numpy as np
 from skfem_sheet.reduced._common import as_sheet, weight_per_area
 from skfem_sheet.reduced.persistence import persistence_length
 
-__all__ = ["CantileverResult", "cantilever_deflection", "flat_cantilever_drop",
-           "cantilever_coefficient"]
+__all__ = [
+    "CantileverResult",
+    "cantilever_coefficient",
+    "cantilever_deflection",
+    "flat_cantilever_drop",
+]
 
 _GAUSS = np.polynomial.legendre.leggauss(64)
 
@@ -80,6 +84,8 @@ def flat_cantilever_drop(sheet, Lp: float) -> float:
     True
     """
     sheet = as_sheet(sheet)
+    if sheet.planform is not None:
+        return _flat_drop_planform(sheet, Lp)
     L, b = sheet.length, sheet.tip_width
     if Lp >= L:
         return 0.0
@@ -93,6 +99,21 @@ def flat_cantilever_drop(sheet, Lp: float) -> float:
     return float(weight_per_area(sheet) / sheet.bending_modulus * np.sum(w * (L - s) * ratio))
 
 
+def _flat_drop_planform(sheet, Lp: float) -> float:
+    """d_flat for any planform: J(s) = int_s^L I by Gauss-Legendre, I = ``sheet.width_integral``."""
+    L = sheet.extent
+    if Lp >= L:
+        return 0.0
+    s, w = _gauss(Lp, L)
+    x, v = _GAUSS
+    # J(s_i) = int_{s_i}^L I(eta) d eta, one Gauss rule per s_i
+    eta = 0.5 * (L - s)[:, None] * x[None, :] + 0.5 * (L + s)[:, None]
+    J = 0.5 * (L - s) * np.sum(v[None, :] * sheet.width_integral(eta), axis=1)
+    p = np.asarray(sheet.width(s), dtype=float)
+    ratio = np.divide(J, p, out=np.zeros_like(J), where=p > 0)
+    return float(weight_per_area(sheet) / sheet.bending_modulus * np.sum(w * (L - s) * ratio))
+
+
 def cantilever_coefficient(tip_width: float, length: float, Lp: float) -> float:
     """C in d_flat = C rho g h (L - L_p)^4 / D for the linear profile p = 1 + (b-1)s/L."""
     from skfem_sheet.params import Sheet
@@ -101,13 +122,16 @@ def cantilever_coefficient(tip_width: float, length: float, Lp: float) -> float:
         weight_per_area(sheet) * (length - Lp) ** 4)
 
 
-def _curved_rise(result, tip_width, length) -> float:
+def _curved_rise(result, sheet) -> float:
     """W_0(L_p) = -3/56 int_0^{L_p} c' p^2 ds from the persistence profile."""
     if result.s.size < 2:
         return 0.0
     s, c = result.s, result.c
     dc = np.gradient(c, s, edge_order=2)
-    p = 1.0 + (tip_width - 1.0) * s / length
+    if sheet.planform is None:
+        p = 1.0 + (sheet.tip_width - 1.0) * s / sheet.length
+    else:
+        p = np.asarray(sheet.width(s), dtype=float)
     f = -3.0 / 56.0 * dc * p**2
     return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(s)))
 
@@ -120,6 +144,7 @@ def cantilever_deflection(sheet, include_curved_part: bool = False,
     ----------
     sheet : Sheet
         Sheet parameters; L_p is computed from ``curvature`` and ``thickness``.
+        With a planform, p = ``sheet.width`` on ``0 <= s <= sheet.extent``.
     include_curved_part : bool
         Also count the (upward) motion W_0(L_p) of the curved part.
     persistence : PersistenceResult, optional
@@ -140,10 +165,10 @@ def cantilever_deflection(sheet, include_curved_part: bool = False,
     """
     sheet = as_sheet(sheet)
     res = persistence_length(sheet) if persistence is None else persistence
-    Lp = min(res.persistence_length, sheet.length)
+    Lp = min(res.persistence_length, sheet.extent)
     flat = flat_cantilever_drop(sheet, Lp)
-    rise = _curved_rise(res, sheet.tip_width, sheet.length) if res.s.size else 0.0
-    denom = weight_per_area(sheet) * (sheet.length - Lp) ** 4 / sheet.bending_modulus
+    rise = _curved_rise(res, sheet) if res.s.size else 0.0
+    denom = weight_per_area(sheet) * (sheet.extent - Lp) ** 4 / sheet.bending_modulus
     coef = flat / denom if denom > 0 else float("nan")
     d = flat - rise if include_curved_part else flat
     return CantileverResult(float(d), float(flat), float(rise), float(Lp), float(coef))

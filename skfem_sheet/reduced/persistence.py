@@ -44,8 +44,13 @@ from scipy.optimize import brentq
 from skfem_sheet.params import ParameterError
 from skfem_sheet.reduced._common import as_sheet
 
-__all__ = ["PersistenceResult", "persistence_length", "persistence_scale",
-           "persistence_length_asymptotic", "lhat_of_delta"]
+__all__ = [
+    "PersistenceResult",
+    "lhat_of_delta",
+    "persistence_length",
+    "persistence_length_asymptotic",
+    "persistence_scale",
+]
 
 #: Smallest admissible tip width of the curved part, P(1) = p(L_p)/a, in the
 #: backward integration (a triangle with L_p -> L makes the ODE singular).
@@ -113,7 +118,87 @@ def persistence_length_asymptotic(sheet) -> float:
     """
     sheet = as_sheet(sheet)
     alpha = persistence_scale(sheet.thickness, sheet.curvature)
+    if sheet.planform is not None:   # Delta_p / L_p: the mean taper over [0, alpha]
+        return alpha * (1.0 - 0.9 * (1.0 - _profile(sheet, alpha)))
     return alpha * (1.0 - 0.9 * alpha * (1.0 - sheet.tip_width) / sheet.length)
+
+
+def _profile(sheet, x):
+    """p(x) of a planform sheet, continued beyond its end (for L_p > L)."""
+    x = np.asarray(x, dtype=float)
+    if sheet.planform.bites:
+        return sheet.width(np.minimum(x, sheet.extent))
+    return sheet.planform.profile(x / sheet.length)
+
+
+def _profile_slope(sheet, x):
+    x = np.asarray(x, dtype=float)
+    if sheet.planform.bites:
+        return sheet.width_slope(np.minimum(x, sheet.extent))
+    return sheet.planform.profile_slope(x / sheet.length) / sheet.length
+
+
+def _rhs_general(sigma, z, sheet, Lp):
+    """:func:`_rhs` for any profile: P(sigma) = p(L_p (1 - sigma))."""
+    y, v = z
+    x = Lp * (1.0 - sigma)
+    P = float(_profile(sheet, x))
+    dP = -Lp * float(_profile_slope(sheet, x))
+    f = 1.0 / (P**5 * v**2) - P**3 * v**2
+    return [v, (f / y - 3.0 * P**2 * dP * v) / P**3]
+
+
+def _lhat_general(sheet, Lp, rtol=1e-11, n_profile=201):
+    """:func:`lhat_of_delta` for the profile P(S) = p(L_p S) of a planform sheet."""
+    P1 = float(_profile(sheet, Lp))
+    dP0 = -Lp * float(_profile_slope(sheet, Lp))
+    a1, a2 = P1**-2, -1.1 * dP0 / P1**3
+    s0 = _SIGMA0 * P1
+    z0 = [a1 * s0 + a2 * s0**2, a1 + 2.0 * a2 * s0]
+    sig = np.linspace(0.0, 1.0, n_profile)
+    sol = solve_ivp(_rhs_general, (s0, 1.0), z0, args=(sheet, Lp), method="DOP853",
+                    rtol=rtol, atol=1e-14, dense_output=True)
+    if not sol.success:  # pragma: no cover - the regular solution is smooth
+        raise RuntimeError(f"persistence ODE failed: {sol.message}")
+    y = np.where(sig < s0, a1 * sig + a2 * sig**2, 0.0)
+    inner = sig >= s0
+    y[inner] = sol.sol(sig[inner])[0]
+    y0 = y[-1]
+    return float(1.0 / y0), 1.0 - sig[::-1], (y[::-1] / y0) ** 2
+
+
+def _persistence_planform(sheet, alpha, asym, rtol, n_profile) -> PersistenceResult:
+    """Solve L_p = alpha Lhat(L_p) with P(S) = p(L_p S) for any planform.
+
+    The linear profile's one-parameter family (Dhat) is replaced by L_p
+    itself; for a sampled trapezoid the two agree to the solver tolerance.
+    """
+    empty = np.empty(0)
+    # L_p may not reach where the width falls to _MIN_P1 (P(1) must stay positive)
+    xs = np.linspace(0.0, 50.0 * alpha, 20001)[1:]
+    low = np.asarray(_profile(sheet, xs)) <= _MIN_P1
+    top = xs[int(np.argmax(low)) - 1] if low.any() else xs[-1]
+
+    def mismatch(Lp):
+        return Lp - alpha * _lhat_general(sheet, Lp, rtol, 2)[0]
+
+    grid = np.concatenate([np.geomspace(1e-3 * alpha, 0.5 * alpha, 4),
+                           np.linspace(0.5 * alpha, top, 16)[1:]])
+    grid = grid[grid <= top]
+    vals = [mismatch(g) for g in grid]
+    root = None
+    for k in range(1, len(grid)):
+        if vals[k - 1] < 0.0 <= vals[k]:
+            root = brentq(mismatch, grid[k - 1], grid[k], xtol=1e-14, rtol=1e-13)
+            break
+    if root is None:
+        return PersistenceResult(math.inf, asym, alpha, math.nan, math.nan, True,
+                                 empty, empty, empty, empty)
+    lhat, S, C = _lhat_general(sheet, root, rtol, n_profile)
+    Lp = float(root)
+    delta = 1.0 - float(_profile(sheet, Lp))
+    return PersistenceResult(Lp, float(asym), alpha, float(lhat), delta, Lp >= sheet.extent,
+                             S, C, Lp * S, sheet.curvature * C)
 
 
 def _rhs(sigma, z, delta):
@@ -173,7 +258,10 @@ def persistence_length(sheet, rtol: float = 1e-11, n_profile: int = 201) -> Pers
     Parameters
     ----------
     sheet : Sheet
-        Uses ``length``, ``tip_width``, ``curvature`` and ``thickness``.
+        Uses ``length``, ``tip_width``, ``curvature`` and ``thickness``.  With a
+        planform the profile is P(S) = p(L_p S) (``sheet.width``, continued
+        beyond the tip) and the scalar condition is solved for L_p directly;
+        ``delta_hat`` is then 1 - p(L_p).
     rtol : float
         Tolerance of the inner integration; L_p is accurate to about 1e-9.
     n_profile : int
@@ -202,6 +290,8 @@ def persistence_length(sheet, rtol: float = 1e-11, n_profile: int = 201) -> Pers
     empty = np.empty(0)
     if alpha == 0.0:
         return PersistenceResult(0.0, 0.0, 0.0, 1.0, 0.0, False, empty, empty, empty, empty)
+    if sheet.planform is not None:
+        return _persistence_planform(sheet, alpha, asym, rtol, n_profile)
     taper = 1.0 - sheet.tip_width
 
     def mismatch(delta):

@@ -102,8 +102,14 @@ from skfem_sheet.reduced._common import POISSON_RATIO, as_sheet, weight_per_area
 from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
 from skfem_sheet.reduced._ribbon_kernels import energy_terms as _energy_term_densities
 
-__all__ = ["RibbonResult", "ContinuationResult", "ribbon", "ribbon_continuation",
-           "detect_jumps", "ribbon_energy_terms"]
+__all__ = [
+    "ContinuationResult",
+    "RibbonResult",
+    "detect_jumps",
+    "ribbon",
+    "ribbon_continuation",
+    "ribbon_energy_terms",
+]
 
 DEFAULT_ELEMENTS = 24
 _BRANCHES = ("curvature", "gravity")
@@ -196,21 +202,37 @@ def _clamped_state(n_nodes: int, kappa: float, impose_flat: bool):
     return x
 
 
-def _nodal_fields(x, S, L, b):
+def _planform_profile(sheet):
+    """``s -> (p, dp/ds, I)`` of a planform sheet (None for the trapezoid)."""
+    if sheet.planform is None:
+        return None
+
+    def profile(s):
+        s = np.asarray(s, dtype=float)
+        return (np.asarray(sheet.width(s), dtype=float),
+                np.asarray(sheet.width_slope(s), dtype=float),
+                np.asarray(sheet.width_integral(s), dtype=float))
+    return profile
+
+
+def _nodal_fields(x, S, L, b, profile=None):
     """Nodal s, c, Phi, phi from the dof vector (phi = Phi + (c p^2)'/4!)."""
     c, cS, Phi = x[0::4], x[1::4], x[2::4]
-    p = 1.0 + (b - 1.0) * S
-    dp = (b - 1.0) / L
+    if profile is None:
+        p = 1.0 + (b - 1.0) * S
+        dp = (b - 1.0) / L
+    else:
+        p, dp, _ = profile(L * S)
     phi = Phi + (cS / L * p**2 + 2.0 * c * p * dp) / 24.0
     return L * S, c, Phi, phi
 
 
-def _deflection(ops, x, S, L, b):
+def _deflection(ops, x, S, L, b, profile=None):
     """d = -[int sin phi + w(L,0) cos phi(L) - w(0,0) cos phi(0)], w(s,0) = -c p^2/4!."""
     q = np.einsum("eqjk,ek->eqj", ops.B, x[ops.dofs])
     rise = float(np.sum(ops.weight * np.sin(q[..., 4])))
-    _, c, _, phi = _nodal_fields(x, S, L, b)
-    pL = b
+    _, c, _, phi = _nodal_fields(x, S, L, b, profile)
+    pL = b if profile is None else float(profile(np.array([L]))[0][0])
     wL, w0 = -c[-1] * pL**2 / 24.0, -c[0] / 24.0
     return -(rise + wL * np.cos(phi[-1]) - w0 * np.cos(phi[0]))
 
@@ -221,8 +243,8 @@ def _moduli(sheet: Sheet):
 
 def _solve_at(sheet, mesh, x0, impose_flat, gravity_scale=1.0, max_iter=100):
     Y, D, nu = _moduli(sheet)
-    ops = make_operators(mesh, sheet.length, sheet.tip_width, weight_per_area(sheet),
-                         Y, D, nu, gravity_scale)
+    ops = make_operators(mesh, sheet.extent, sheet.tip_width, weight_per_area(sheet),
+                         Y, D, nu, gravity_scale, _planform_profile(sheet))
     free = _free_mask(mesh.n_elements + 1, impose_flat)
     x0 = np.array(x0, dtype=float)
     if not impose_flat:
@@ -235,11 +257,11 @@ def _solve_at(sheet, mesh, x0, impose_flat, gravity_scale=1.0, max_iter=100):
 
 def _result(sheet, mesh, ops, x, conv, stable, its):
     S = mesh.S_nodes
-    L, b = sheet.length, sheet.tip_width
-    s, c, Phi, phi = _nodal_fields(x, S, L, b)
-    d = _deflection(ops, x, S, L, b)
+    L, b, prof = sheet.extent, sheet.tip_width, _planform_profile(sheet)
+    s, c, Phi, phi = _nodal_fields(x, S, L, b, prof)
+    d = _deflection(ops, x, S, L, b, prof)
     ok = bool(conv and np.isfinite(d))
-    return RibbonResult(L, float(d), ok, bool(stable), int(its), s, c, Phi, phi, x)
+    return RibbonResult(sheet.length, float(d), ok, bool(stable), int(its), s, c, Phi, phi, x)
 
 
 def _gravity_first(sheet, mesh, impose_flat, n_ramp=10):
@@ -353,7 +375,8 @@ def ribbon_energy_terms(sheet, result: RibbonResult) -> dict:
         raise ParameterError("result must be a RibbonResult computed for this sheet's length")
     mesh = make_mesh(result.state.size // 4 - 1)
     Y, D, nu = _moduli(sheet)
-    ops = make_operators(mesh, sheet.length, sheet.tip_width, weight_per_area(sheet), Y, D, nu)
+    ops = make_operators(mesh, sheet.extent, sheet.tip_width, weight_per_area(sheet), Y, D, nu,
+                         profile=_planform_profile(sheet))
     q = np.einsum("eqjk,ek->eqj", ops.B, result.state[ops.dofs])
     dens = _energy_term_densities(q, ops.p, ops.grav, Y, D, nu)
     out = {k: float(np.sum(ops.weight * v)) for k, v in dens.items()}
@@ -435,7 +458,7 @@ def _locate_jump(template, mesh, prev, L_new, impose_flat, jump_tol, depth=2, su
     """
     a, b = prev.length, float(L_new)
     start, final, big = prev, None, None
-    for level in range(depth):
+    for _level in range(depth):
         Ls = np.linspace(a, b, substeps + 1)[1:]
         run = _march(template, mesh, start, Ls, impose_flat)
         if final is None:
