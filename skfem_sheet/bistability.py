@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .analyses.observables import midline_nodes, tip_deflection
+from .analyses.observables import free_edge_nodes, tip_deflection
 from .analyses.stability import stability
 from .analyses.transfer import transfer
 from .continuation import follow_path
@@ -585,7 +585,7 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     u_free = free < nu
     theta = 1.0 / np.count_nonzero(u_free)
 
-    tip_nodes = midline_nodes(problem, problem.length)
+    tip_nodes = free_edge_nodes(problem)
     tip = 3 * tip_nodes[np.argmin(np.abs(problem.nodes[tip_nodes, 1]))] + 2
     tip_f = int(np.searchsorted(free, tip))  # its position among the free dofs
 

@@ -2,6 +2,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from skfem_sheet import Sheet, solve
@@ -218,3 +219,35 @@ def test_si_excludes_the_dimensionless_flags(capsys):
     with pytest.raises(SystemExit):  # argparse: --length and --si are exclusive
         main(["solve", "--si", SI_TEXT, "--length", "1"])
     assert "not allowed with" in capsys.readouterr().err
+
+
+def test_planform_csv_of_a_trapezoid_gives_the_trapezoid(tmp_path, capsys):
+    """``--planform FILE.csv`` (columns x,width; L from the last x) on solve and the
+    reduced models: a sampled trapezoid answers exactly as ``--tip-width``."""
+    import json
+
+    from skfem_sheet.cli import main
+
+    csv = tmp_path / "trapezoid.csv"
+    csv.write_text("x,width\n0,1\n0.65,0.8\n1.3,0.6\n")
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    assert main(["solve", "--planform", str(csv), "--curvature", "2.5", "--hmax", "0.2",
+                 "--json", str(a), "--quiet"]) == 0
+    assert main(["solve", "--length", "1.3", "--tip-width", "0.6", "--curvature", "2.5",
+                 "--hmax", "0.2", "--json", str(b), "--quiet"]) == 0
+    da, db = json.loads(a.read_text())["deflection"], json.loads(b.read_text())["deflection"]
+    assert abs(da - db) <= 1e-6 * abs(db)
+    for cmd in (["rom", "elastica"], ["rom", "ribbon", "--curvature", "2.5",
+                                      "--lengths", "1.2:1.3:0.1"]):
+        assert main(cmd + ["--planform", str(csv), "--json", str(a)]) == 0
+        length = [] if cmd[1] == "ribbon" else ["--length", "1.3"]
+        assert main(cmd + length + ["--tip-width", "0.6", "--json", str(b)]) == 0
+        ra, rb = json.loads(a.read_text()), json.loads(b.read_text())
+        assert np.allclose(ra["deflection"], rb["deflection"], rtol=1e-6, atol=1e-9)
+    capsys.readouterr()
+    assert main(["solve", "--planform", str(csv), "--tip-width", "0.5"]) == 2
+    assert "--tip-width cannot be combined with --planform" in capsys.readouterr().err
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,width\n0,1\n1,-0.2\n")
+    assert main(["solve", "--planform", str(bad)]) == 2
+    assert "width" in capsys.readouterr().err

@@ -27,7 +27,7 @@ import os
 import numpy as np
 
 from ..io import write_json
-from ..params import ParameterError, Sheet
+from ..params import ParameterError, Sheet, read_planform_csv
 from ..reduced.cantilever import cantilever_deflection
 from ..reduced.elastica import elastica
 from ..reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
@@ -44,9 +44,20 @@ def _write_json(path, payload) -> None:
 
 
 def _sheet(args, length=None) -> Sheet:
-    return Sheet(length=args.length if length is None else length,
-                 tip_width=args.tip_width, curvature=getattr(args, "curvature", 0.0),
-                 thickness=args.thickness, modulus=args.modulus)
+    """The sheet of the flags: a trapezoid, or the ``--planform`` file's profile."""
+    params = dict(curvature=getattr(args, "curvature", 0.0) or 0.0,
+                  thickness=args.thickness, modulus=args.modulus)
+    if length is None:
+        length = args.length
+    if getattr(args, "planform", None):
+        if args.tip_width is not None:
+            raise ParameterError("--tip-width cannot be combined with --planform "
+                                 "(the planform gives the width)")
+        return Sheet.from_planform(read_planform_csv(args.planform), length=length, **params)
+    if length is None:
+        raise ParameterError("--length is required (or --planform FILE.csv)")
+    tip = 1.0 if args.tip_width is None else args.tip_width
+    return Sheet(length=length, tip_width=tip, **params)
 
 
 def _label(sheet: Sheet) -> str:
@@ -69,8 +80,7 @@ def _cmd_persistence(args) -> int:
 
 
 def _cmd_elastica(args) -> int:
-    sheet = Sheet(length=args.length, tip_width=args.tip_width,
-                  thickness=args.thickness, modulus=args.modulus)
+    sheet = _sheet(args)
     r = elastica(sheet)
     _write_json(args.json, {"deflection": r.deflection, "converged": r.converged,
                             "sheet": sheet.to_dict()})
@@ -94,7 +104,7 @@ def _cmd_cantilever(args) -> int:
 
 def _cmd_ribbon(args) -> int:
     lengths = parse_range(args.lengths, "--lengths")
-    template = _sheet(args, length=float(lengths[0]))
+    template = _sheet(args, length=float(lengths[0]))  # a planform is stretched to each L
     br = ribbon_continuation(template, lengths, args.direction,
                              impose_flat=args.impose_flat, n_elements=args.elements)
     _write_json(args.json, {
@@ -140,10 +150,16 @@ def _cmd_map(args) -> int:
 
 
 # -- parser --------------------------------------------------------------------------
-def _common(parser, length=True, curvature=True, required_curvature=False):
+def _common(parser, length=True, curvature=True, required_curvature=False, planform=False):
     if length:
-        parser.add_argument("--length", type=float, required=True, help="L/a")
-    parser.add_argument("--tip-width", type=float, default=1.0, help="b/a (default 1)")
+        parser.add_argument("--length", type=float, required=not planform,
+                            help="L/a" + (" (default with --planform: its last x)"
+                                          if planform else ""))
+    parser.add_argument("--tip-width", type=float, default=None, help="b/a (default 1)")
+    if planform:
+        parser.add_argument("--planform", default=None, metavar="FILE.csv",
+                            help="width profile instead of a trapezoid: CSV with columns "
+                                 "x,width (x from 0 to L; L is the last x)")
     if curvature:
         parser.add_argument("--curvature", type=float, default=None if required_curvature
                             else 0.0, required=required_curvature, help="a/R")
@@ -172,7 +188,7 @@ def register(subparsers) -> None:
     p.set_defaults(run=_cmd_persistence)
 
     p = sub.add_parser("elastica", help="heavy elastica with varying width")
-    _common(p, curvature=False)
+    _common(p, curvature=False, planform=True)
     p.add_argument("--json", help="write results to this JSON file")
     p.set_defaults(run=_cmd_elastica)
 
@@ -184,7 +200,7 @@ def register(subparsers) -> None:
     p.set_defaults(run=_cmd_cantilever)
 
     p = sub.add_parser("ribbon", help="ribbon model, continuation in L")
-    _common(p, length=False)
+    _common(p, length=False, planform=True)
     p.add_argument("--lengths", required=True, help="start:stop:step of L/a")
     p.add_argument("--direction", choices=("increasing", "decreasing"), default="increasing")
     p.add_argument("--impose-flat", action="store_true", help="impose c == 0 (heavy elastica)")

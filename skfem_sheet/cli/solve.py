@@ -15,7 +15,7 @@ import math
 
 from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
-from ..params import ParameterError, Sheet
+from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
 from ..solve import solve
 
@@ -48,10 +48,13 @@ def add_sheet_args(p, length=None) -> None:
                        help="the sheet in SI units instead: " + ", ".join(
                            f"{n}=" for n in SI_NAMES) + " (metres, Pa, kg/m^3, m/s^2; "
                        "gravity optional, default 9.81; radius=inf: flat clamp)")
+        g.add_argument("--planform", default=None, metavar="FILE.csv",
+                       help="a width profile instead of a trapezoid: CSV with columns x,width "
+                            "(x from 0 to L, L taken from the last x; width 1 at x = 0)")
     else:
         p.add_argument("--length", type=float, default=length,
                        help=f"L/a, sheet length in base widths (default {length:g})")
-        p.set_defaults(si=None)
+        p.set_defaults(si=None, planform=None)
     p.add_argument("--tip-width", type=float, default=None,
                    help="b/a (1 rectangle, 0 triangle; default 1)")
     p.add_argument("--curvature", type=float, default=None, help="a/R, clamp curvature (default 0)")
@@ -142,6 +145,12 @@ def sheet_from_args(args) -> Sheet:
               f"a/R = {sheet.curvature:.6g}, h/a = {sheet.thickness:.6g}, "
               f"E/(rho g a) = {sheet.modulus:.6g}")
         return sheet
+    if getattr(args, "planform", None) is not None:
+        if "tip_width" in given:
+            raise ParameterError("--tip-width cannot be combined with --planform "
+                                 "(the planform gives the width)")
+        params = {k: v for k, v in {**SHEET_DEFAULTS, **given}.items() if k != "tip_width"}
+        return Sheet.from_planform(read_planform_csv(args.planform), **params)
     return Sheet(length=args.length, **{**SHEET_DEFAULTS, **given})
 
 
