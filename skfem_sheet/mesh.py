@@ -171,7 +171,8 @@ def _check_mesh_args(sheet: Sheet, hmax: float, layers):
         _check_narrow(sheet, hmax)
     if layers is None:
         layers = default_layers(sheet.thickness, hmax)
-    if isinstance(layers, bool) or not float(layers).is_integer() or not 1 <= layers <= 16:
+    if (isinstance(layers, bool) or not isinstance(layers, (int, float, np.integer, np.floating))
+            or not float(layers).is_integer() or not 1 <= layers <= 16):
         raise ParameterError(f"layers must be an integer in [1, 16], got {layers!r}")
     return hmax, int(layers)
 

@@ -22,6 +22,7 @@ __all__ = [
     "Planform",
     "Sheet",
     "check_finite",
+    "check_integer",
     "check_range",
     "read_planform_csv",
 ]
@@ -44,9 +45,30 @@ def check_finite(name: str, value) -> float:
         x = float(value)
     except (TypeError, ValueError):
         raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    except OverflowError:  # an int too large for a float
+        raise ParameterError(f"{name} must be finite, got {value!r}") from None
     if not math.isfinite(x):
         raise ParameterError(f"{name} must be finite, got {value!r}")
     return x
+
+
+def check_integer(name: str, value, lo=None, hi=None) -> int:
+    """Return ``value`` as an int in ``[lo, hi]``, or raise ``ParameterError`` naming ``name``.
+
+    Examples
+    --------
+    >>> check_integer("n_nodes", 7.0, 5)
+    7
+    """
+    bad = isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
+    if not bad:
+        x = check_finite(name, value)
+        bad = not x.is_integer() or (lo is not None and x < lo) or (hi is not None and x > hi)
+    if bad:
+        lo_s = "-inf" if lo is None else f"{lo:g}"
+        hi_s = "inf" if hi is None else f"{hi:g}"
+        raise ParameterError(f"{name} must be an integer in [{lo_s}, {hi_s}], got {value!r}")
+    return int(value)
 
 
 def check_range(name: str, value, lo=None, hi=None, *, lo_open=False,
@@ -651,10 +673,15 @@ class Sheet:
         (734, 1.3, 2.5)
         """
         a = check_range("base_width", base_width, 0, None, lo_open=True)
-        for name, v in [("length", length), ("thickness", thickness)]:
-            check_range(name, v, 0, None, lo_open=True)
-        check_range("tip_width", tip_width, 0, a, hint="0 <= b <= base_width")
-        r = float(radius)
+        length = check_range("length", length, 0, None, lo_open=True)
+        thickness = check_range("thickness", thickness, 0, None, lo_open=True)
+        tip_width = check_range("tip_width", tip_width, 0, a, hint="0 <= b <= base_width")
+        try:
+            r = float(radius)
+        except (TypeError, ValueError):
+            raise ParameterError(f"radius must be a number in (0, inf], got {radius!r}") from None
+        except OverflowError:  # an int too large for a float: a flat clamp
+            r = math.inf
         if math.isnan(r) or r <= 0:
             raise ParameterError(f"radius must be in (0, inf], got {radius!r}")
         E = check_range("youngs_modulus", youngs_modulus, 0, None, lo_open=True)

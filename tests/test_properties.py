@@ -415,31 +415,40 @@ def _si(**change):
 
 
 KNOWN_BUGS = {
-    # params.check_finite: float() of a huge int raises OverflowError
-    "params: Sheet(length=10**400)": lambda: Sheet(length=10**400),
-    "params: Sheet.from_si(base_width=10**400)": lambda: Sheet.from_si(**_si(base_width=10**400)),
-    # params.Sheet.from_si divides the raw arguments, and float()s radius unchecked
-    "params: Sheet.from_si(length='0.065')": lambda: Sheet.from_si(**_si(length="0.065")),
-    "params: Sheet.from_si(radius='abc')": lambda: Sheet.from_si(**_si(radius="abc")),
-    "params: Sheet.from_si(radius=None)": lambda: Sheet.from_si(**_si(radius=None)),
-    # mesh._check_mesh_args: float(layers) / 1 <= layers on a string
-    "mesh: solve(layers='2')": lambda: solve(Sheet(0.5), hmax=0.3, layers="2"),
-    "mesh: solve(layers='abc')": lambda: solve(Sheet(0.5), hmax=0.3, layers="abc"),
     # solve: newton_options / step_options are not checked
     "solve: solve(newton_options='x')": lambda: solve(Sheet(0.5), hmax=0.3, newton_options="x"),
     "solve: solve(step_options=1)": lambda: solve(Sheet(0.5), hmax=0.3, step_options=1),
-    # reduced: the numerical keywords are not checked
-    "elastica: elastica(tol=None)": lambda: elastica(Sheet(1.0), tol=None),
-    "elastica: elastica(n_nodes=None)": lambda: elastica(Sheet(1.0), n_nodes=None),
-    "persistence: persistence_length(n_profile=nan)":
-        lambda: persistence_length(Sheet(1.0, curvature=2.5), n_profile=math.nan),
-    "persistence: persistence_length(rtol=None)":
-        lambda: persistence_length(Sheet(1.0, curvature=2.5), rtol=None),
-    "ribbon: ribbon_continuation(lengths='abc')":
-        lambda: ribbon_continuation(Sheet(1.0, curvature=2.5), "abc"),
-    "cantilever: cantilever_deflection(persistence='x')":
-        lambda: cantilever_deflection(Sheet(1.0, curvature=2.5), persistence="x"),
 }
+
+#: Found by the properties above and fixed (session 5): each must now raise a
+#: ParameterError naming its parameter.
+FIXED_BUGS = {
+    "params: Sheet(length=10**400)": (lambda: Sheet(length=10**400), "length"),
+    "params: Sheet.from_si(base_width=10**400)":
+        (lambda: Sheet.from_si(**_si(base_width=10**400)), "base_width"),
+    "params: Sheet.from_si(length='0.065')": (lambda: Sheet.from_si(**_si(length="x")), "length"),
+    "params: Sheet.from_si(radius='abc')": (lambda: Sheet.from_si(**_si(radius="abc")), "radius"),
+    "params: Sheet.from_si(radius=None)": (lambda: Sheet.from_si(**_si(radius=None)), "radius"),
+    "mesh: solve(layers='2')": (lambda: solve(Sheet(0.5), hmax=0.3, layers="2"), "layers"),
+    "mesh: solve(layers='abc')": (lambda: solve(Sheet(0.5), hmax=0.3, layers="abc"), "layers"),
+    "elastica: elastica(tol=None)": (lambda: elastica(Sheet(1.0), tol=None), "tol"),
+    "elastica: elastica(n_nodes=None)": (lambda: elastica(Sheet(1.0), n_nodes=None), "n_nodes"),
+    "persistence: persistence_length(n_profile=nan)":
+        (lambda: persistence_length(Sheet(1.0, curvature=2.5), n_profile=math.nan), "n_profile"),
+    "persistence: persistence_length(rtol=None)":
+        (lambda: persistence_length(Sheet(1.0, curvature=2.5), rtol=None), "rtol"),
+    "ribbon: ribbon_continuation(lengths='abc')":
+        (lambda: ribbon_continuation(Sheet(1.0, curvature=2.5), "abc"), "lengths"),
+    "cantilever: cantilever_deflection(persistence='x')":
+        (lambda: cantilever_deflection(Sheet(1.0, curvature=2.5), persistence="x"), "persistence"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FIXED_BUGS))
+def test_fixed_bug_raises_parameter_error_naming_the_parameter(no_meshing, case):
+    fn, name = FIXED_BUGS[case]
+    with pytest.raises(ParameterError, match=name):
+        fn()
 
 
 @pytest.mark.xfail(strict=True, reason="known input-validation bugs, reported (not owned here)")

@@ -30,8 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from skfem_sheet.params import ParameterError
 from skfem_sheet.reduced._common import as_sheet, weight_per_area
-from skfem_sheet.reduced.persistence import persistence_length
+from skfem_sheet.reduced.persistence import PersistenceResult, persistence_length
 
 __all__ = [
     "CantileverResult",
@@ -164,6 +165,9 @@ def cantilever_deflection(sheet, include_curved_part: bool = False,
     True
     """
     sheet = as_sheet(sheet)
+    if persistence is not None and not isinstance(persistence, PersistenceResult):
+        raise ParameterError(f"persistence must be a PersistenceResult of persistence_length "
+                             f"or None, got {type(persistence).__name__}")
     res = persistence_length(sheet) if persistence is None else persistence
     Lp = min(res.persistence_length, sheet.extent)
     flat = flat_cantilever_drop(sheet, Lp)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_bvp
 
-from skfem_sheet.params import ParameterError
+from skfem_sheet.params import check_integer, check_range
 from skfem_sheet.reduced._common import (
     as_sheet,
     integrated_profile,
@@ -133,11 +133,8 @@ def elastica(sheet, tol: float = 1e-9, n_nodes: int = 101, max_nodes: int = 1000
     0.768
     """
     sheet = as_sheet(sheet)
-    tol = float(tol)
-    if not 0 < tol < 1e-2:
-        raise ParameterError(f"tol must be in (0, 0.01), got {tol!r}")
-    if int(n_nodes) < 5:
-        raise ParameterError(f"n_nodes must be in [5, inf), got {n_nodes!r}")
+    tol = check_range("tol", tol, 0, 1e-2, lo_open=True, hi_open=True)
+    n_nodes = check_integer("n_nodes", n_nodes, 5)
     s = np.linspace(0.0, sheet.extent, int(n_nodes))   # extent: L, or where bites end
     if sheet.planform is not None and sheet.planform.bites:
         # p ~ sqrt(x - x0) where a bite leaves the axis: the collocation residual

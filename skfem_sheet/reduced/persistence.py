@@ -41,7 +41,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from skfem_sheet.params import ParameterError
+from skfem_sheet.params import ParameterError, check_integer, check_range
 from skfem_sheet.reduced._common import as_sheet
 
 __all__ = [
@@ -282,9 +282,8 @@ def persistence_length(sheet, rtol: float = 1e-11, n_profile: int = 201) -> Pers
     1.0858
     """
     sheet = as_sheet(sheet)
-    n_profile = int(n_profile)
-    if n_profile < 2:
-        raise ParameterError(f"n_profile must be in [2, inf), got {n_profile!r}")
+    n_profile = check_integer("n_profile", n_profile, 2)
+    rtol = check_range("rtol", rtol, 0, 1e-2, lo_open=True, hi_open=True)
     alpha = persistence_scale(sheet.thickness, sheet.curvature)
     asym = persistence_length_asymptotic(sheet)
     empty = np.empty(0)

@@ -426,7 +426,10 @@ def detect_jumps(deflection, converged=None, abs_tol: float = 0.1):
 def _order_lengths(lengths, direction):
     if direction not in _DIRECTIONS:
         raise ParameterError(f"direction must be one of {_DIRECTIONS}, got {direction!r}")
-    L = np.asarray(lengths, dtype=float).ravel()
+    try:
+        L = np.asarray(lengths, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ParameterError(f"lengths must be numbers, got {lengths!r}") from None
     if L.size == 0:
         raise ParameterError("lengths must contain at least one value")
     for v in L:
