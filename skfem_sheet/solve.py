@@ -8,7 +8,6 @@ from functools import lru_cache
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .analyses.stability import stability
 from .continuation import PATHS, StepOptions, follow_path
 from .io import write_result
 from .linalg import make_linear_solver
@@ -291,8 +290,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if bar is not None:
             bar.close()
     w = out.w
-    # inertia of the last factorised tangent (Newton's last iterate but one)
-    stable, n_neg = stability(problem, linear) if out.converged else (None, None)
+    # the load path verified its end state (the inertia of its tangent)
+    stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
     result = Result(
         sheet=sheet, path=path, hmax=hmax,
         deflection=tip_deflection(problem, w), converged=out.converged,
