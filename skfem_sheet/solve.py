@@ -74,8 +74,12 @@ class Result:
         Whether the equilibrium is stable: the constrained Hessian (the tangent
         on the incompressible subspace) is positive definite, read off the
         inertia of the last factorised tangent (``None`` if the linear solver
-        cannot tell).  For a symmetric solve, stability against symmetric
-        perturbations.
+        cannot tell, also after refactorising at the end state).  For a
+        symmetric solve, stability against symmetric perturbations.  The load
+        path verifies it: a converged result is never known to be unstable
+        (an unstable end state is left along its unstable eigenvector, a snap
+        recorded in ``snaps``, or the solve fails saying that it ended on an
+        unstable equilibrium; see :func:`~skfem_sheet.continuation.follow_path`).
     negative_eigenvalues : int or None
         Number of negative eigenvalues of the constrained Hessian.
     refine : int

@@ -1,0 +1,110 @@
+"""Snapping load paths (issue 17): a stable, verified end state, a bounded
+snap, and the same answer in every fresh process.
+
+Each case is a sheet whose followed branch ends at a fold on the given path
+(short, strongly curved ones gravity-first: the drooped branch is lost during
+the curvature ramp and the sheet pops up; long curved ones curvature-first:
+the aloft branch is lost during the gravity ramp and the sheet drops).  It is
+solved twice in fresh Python processes (with the environment's default
+threads) and once along the other path; beyond the fold the sheet has one
+equilibrium, so the snapped state is the other path's.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from skfem_sheet import Sheet, SolveError, solve
+from skfem_sheet.analyses import stability as stability_module
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+CHILD = """
+import json, sys
+from skfem_sheet import Sheet, solve
+spec = json.loads(sys.argv[1])
+r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return")
+print(json.dumps(dict(d=r.deflection, iterations=r.newton_iterations, converged=r.converged,
+                      stable=r.stable, negative_eigenvalues=r.negative_eigenvalues,
+                      snaps=[list(s) for s in r.snaps], branch=r.branch, message=r.message)))
+"""
+
+OTHER = {"gravity-first": "curvature-first", "curvature-first": "gravity-first"}
+
+# sheet, snapping path, hmax, bound on the Newton iterations of the snapping path
+# (issue 17: the first case took 164-392 with the residual-ratio pseudo-transient)
+CASES = [
+    pytest.param(dict(length=1.299, tip_width=0.633, curvature=5.112, thickness=0.02,
+                      modulus=400.0), "gravity-first", 0.08, 150, id="issue17-sheet"),
+    pytest.param(dict(length=1.0, tip_width=0.8, curvature=5.5, thickness=0.02, modulus=400.0),
+                 "gravity-first", 0.08, 130, id="short-thin-popup"),
+    pytest.param(dict(length=1.3, tip_width=1.0, curvature=6.0), "gravity-first", 0.1, 120,
+                 id="rectangle-popup"),
+    pytest.param(dict(length=1.63, tip_width=0.65, curvature=3.37, thickness=0.02,
+                      modulus=400.0), "curvature-first", 0.1, 150, id="long-thin-drop"),
+]
+
+
+def _spawn(sheet, path, hmax):
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax))
+    return subprocess.Popen([sys.executable, "-c", CHILD, spec], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _collect(proc):
+    out, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err[-2000:]
+    return json.loads(out.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("sheet, path, hmax, bound", CASES)
+def test_snapping_path_is_stable_bounded_and_reproducible(sheet, path, hmax, bound):
+    procs = [_spawn(sheet, path, hmax) for _ in range(2)]
+    other = _spawn(sheet, OTHER[path], hmax)
+    first, second = (_collect(p) for p in procs)
+    ref = _collect(other)
+    for r in (first, second):
+        assert r["converged"], r["message"]
+        assert r["stable"] is True and r["negative_eigenvalues"] == 0
+        assert r["iterations"] <= bound
+        # the followed branch ended in the second phase; the state is the other branch's
+        assert len(r["snaps"]) >= 1
+        assert r["snaps"][0][0] == ("curvature" if path == "gravity-first" else "gravity")
+        assert r["branch"] == ("curvature-dominated" if path == "gravity-first"
+                               else "gravity-dominated")
+    # two fresh processes: the same d and the same work
+    assert second["d"] == pytest.approx(first["d"], abs=1e-10)
+    assert second["iterations"] == first["iterations"]
+    # past the fold there is one equilibrium: the other path's (to Newton's tolerance)
+    assert ref["converged"] and ref["stable"] is True
+    assert first["d"] == pytest.approx(ref["d"], abs=1e-6)
+
+
+def test_an_unverifiable_unstable_end_state_is_a_failure_not_an_answer(monkeypatch):
+    """If the end state is reported unstable and no unstable direction can be
+    found to leave it, the path fails with a message that says so (raised, or
+    returned with converged=False), instead of returning it as converged."""
+    real = stability_module.stability
+
+    def unstable(problem, solver):
+        stable, k = real(problem, solver)
+        return (False, 1) if stable else (stable, k)
+
+    import skfem_sheet.continuation as continuation
+
+    monkeypatch.setattr(continuation, "stability", unstable)
+    sheet = Sheet(length=0.6, tip_width=0.8, curvature=1.5)
+    with pytest.raises(SolveError, match="unstable equilibrium"):
+        solve(sheet, hmax=0.2)
+    r = solve(sheet, hmax=0.2, on_failure="return")
+    assert not r.converged and "unstable equilibrium" in r.message
+    assert "no unstable direction" in r.message
+    assert r.stable is None
+    monkeypatch.setattr(continuation, "stability", real)
+    ok = solve(sheet, hmax=0.2)
+    assert ok.converged and ok.stable is True and np.isfinite(ok.deflection)
+    assert ok.deflection == pytest.approx(r.deflection, abs=1e-12)
