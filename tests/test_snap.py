@@ -108,3 +108,33 @@ def test_an_unverifiable_unstable_end_state_is_a_failure_not_an_answer(monkeypat
     ok = solve(sheet, hmax=0.2)
     assert ok.converged and ok.stable is True and np.isfinite(ok.deflection)
     assert ok.deflection == pytest.approx(r.deflection, abs=1e-12)
+
+
+def _snap_sample_module():
+    import importlib.util
+
+    path = os.path.join(ROOT, "benchmarks", "snap_sample.py")
+    spec = importlib.util.spec_from_file_location("snap_sample", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_snap_sample_draws_in_range_and_flags_unverified_results(capsys):
+    bench = _snap_sample_module()
+    pts = bench.sample(60, 17)
+    assert pts == bench.sample(60, 17) and len(pts) == 60
+    for name, lo, hi in (("length", 0.2, 3.0), ("tip_width", 0.0, 1.0), ("curvature", 0.0, 6.0),
+                         ("thickness", 0.02, 0.045), ("modulus", 400.0, 2000.0)):
+        xs = [p[name] for p in pts]
+        assert lo <= min(xs) and max(xs) <= hi and max(xs) - min(xs) > 0.5 * (hi - lo)
+    base = dict(pts[0], path="gravity-first", status="converged", deflection=0.1,
+                newton_iterations=30, wall_time_s=1.0, snaps=[], message="")
+    good = [dict(base, key="a", stable=True),
+            dict(base, key="b", stable=True, snaps=[["curvature", 0.5, 3.0, 1.0]])]
+    assert bench.report(good) == 0
+    out = capsys.readouterr().out
+    assert "converged with stable False/None: 0" in out and "solves that snapped: 1" in out
+    for bad in (False, None):
+        assert bench.report(good + [dict(base, key="c", stable=bad)]) == 1
+        assert "converged with stable False/None: 1" in capsys.readouterr().out
