@@ -30,13 +30,16 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.linalg import ArpackError, ArpackNoConvergence
 
 from .analyses.stability import stability
-from .linalg import LinearSolverError
+from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
 
 __all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
 
 PATHS = ("curvature-first", "gravity-first")
+
+#: Largest tangent whose inertia is checked with SuperLU when the solver cannot tell.
+_SUPERLU_CHECK_DOFS = 100_000
 
 
 @dataclass(frozen=True)
@@ -231,17 +234,31 @@ def _negatives(problem, solver):
 
 def _verdict(problem, solver, w, stats):
     """``(stable, k)`` of the equilibrium ``w`` from the last factorised
-    tangent (Newton's last iterate but one, within the tolerance of ``w``);
-    if that inertia cannot be trusted, once more from the tangent at ``w``."""
+    tangent (Newton's last iterate but one, within the tolerance of ``w``).
+    If that inertia cannot be trusted (or the back-end does not report it),
+    once more from the tangent at ``w``, and then from a SuperLU
+    factorisation of it (whose inertia is exact when it pivots on the
+    diagonal; only up to ``_SUPERLU_CHECK_DOFS`` unknowns, its fill grows
+    fast); ``solver`` is left factorised at ``w``."""
     verdict = stability(problem, solver)
-    if verdict[0] is None:
-        K = timed(stats, "assembly_s", problem.tangent, w)
+    if verdict[0] is not None and not (verdict[0] is False and not verdict[1]):
+        return verdict
+    K = timed(stats, "assembly_s", problem.tangent, w)
+    try:
+        timed(stats, "linear_solve_s", solver.factorize, K, w)
+    except LinearSolverError:
+        return None, None
+    stats.factorizations += 1
+    verdict = stability(problem, solver)
+    if (verdict[0] is None and getattr(solver, "name", "") != "superlu"
+            and K.shape[0] <= _SUPERLU_CHECK_DOFS):
+        check = make_linear_solver("superlu")
         try:
-            timed(stats, "linear_solve_s", solver.factorize, K, w)
+            timed(stats, "linear_solve_s", check.factorize, K, w)
         except LinearSolverError:
             return None, None
         stats.factorizations += 1
-        verdict = stability(problem, solver)
+        verdict = stability(problem, check)
     return verdict
 
 

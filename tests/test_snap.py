@@ -138,3 +138,18 @@ def test_snap_sample_draws_in_range_and_flags_unverified_results(capsys):
     for bad in (False, None):
         assert bench.report(good + [dict(base, key="c", stable=bad)]) == 1
         assert "converged with stable False/None: 1" in capsys.readouterr().out
+
+
+def test_end_state_is_verified_when_the_solver_cannot_report_the_inertia():
+    """PyAMG reports no inertia: the end state's inertia comes from a SuperLU
+    factorisation of its tangent, and agrees with the direct solvers'."""
+    from skfem_sheet.linalg import available_solvers
+
+    if "pyamg" not in available_solvers():
+        pytest.skip("pyamg is not installed")
+    sheet = Sheet(length=0.6, tip_width=0.8, curvature=1.5)
+    amg = solve(sheet, hmax=0.2, solver="pyamg")
+    direct = solve(sheet, hmax=0.2, solver="superlu")
+    assert amg.stable is True and amg.negative_eigenvalues == 0
+    assert direct.stable is True and direct.negative_eigenvalues == 0
+    assert amg.deflection == pytest.approx(direct.deflection, rel=1e-6)
