@@ -5,9 +5,18 @@ Each case is a sheet whose followed branch ends at a fold on the given path
 (short, strongly curved ones gravity-first: the drooped branch is lost during
 the curvature ramp and the sheet pops up; long curved ones curvature-first:
 the aloft branch is lost during the gravity ramp and the sheet drops).  It is
-solved twice in fresh Python processes (with the environment's default
-threads) and once along the other path; beyond the fold the sheet has one
-equilibrium, so the snapped state is the other path's.
+solved twice in fresh Python processes and once along the other path; beyond
+the fold the sheet has one equilibrium, so the snapped state is the other
+path's.
+
+The regression set runs its processes with reproducible arithmetic (one
+thread, ``MKL_CBWR=COMPATIBLE``), which separates the logic of the path (same
+decisions, same iterations) from threaded round-off.  The issue's sheet is
+also run with the environment's default threads: equal iteration counts there
+need reproducible linear solves by default (issue 17, item 1, in
+``skfem_sheet.linalg``); without them a failed Newton attempt beyond the fold
+stops after 5 or 8 iterations depending on round-off (the end state agrees to
+1e-13).
 """
 import json
 import os
@@ -48,8 +57,12 @@ CASES = [
 ]
 
 
-def _spawn(sheet, path, hmax):
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+REPRODUCIBLE = dict(MKL_CBWR="COMPATIBLE", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+
+
+def _spawn(sheet, path, hmax, extra_env=REPRODUCIBLE):
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               **extra_env)
     spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax))
     return subprocess.Popen([sys.executable, "-c", CHILD, spec], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -59,6 +72,18 @@ def _collect(proc):
     out, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err[-2000:]
     return json.loads(out.strip().splitlines()[-1])
+
+
+def test_the_issue_sheet_is_reproducible_with_default_threads():
+    sheet, path, hmax, bound = CASES[0].values
+    first, second = (_collect(p) for p in [_spawn(sheet, path, hmax, {}) for _ in range(2)])
+    for r in (first, second):
+        assert r["converged"] and r["stable"] is True and r["iterations"] <= bound
+    assert second["d"] == pytest.approx(first["d"], abs=1e-10)
+    if second["iterations"] != first["iterations"]:
+        pytest.xfail(f"iterations {first['iterations']} and {second['iterations']}: equal counts "
+                     "with threads need reproducible linear solves by default (issue 17 item 1, "
+                     "skfem_sheet.linalg); make this an assertion once they are merged")
 
 
 @pytest.mark.parametrize("sheet, path, hmax, bound", CASES)
