@@ -126,6 +126,7 @@ def main(argv=None):
             done[k] = rec
     if n_shard > 1:
         return 0
+    done = _read(args.out)  # with the solves of other workers on the same file (--reverse)
     recs = [done[key(p, path)] for p, path in todo]
     print(f"{'kind':7s} {'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>5s} {'E':>6s} {'path':16s} "
           f"{'status':9s} {'d/a':>8s} {'newton':>6s} {'s':>6s}  reason")
