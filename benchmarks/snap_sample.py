@@ -93,22 +93,24 @@ def _stats(xs):
 
 def report(recs):
     """The table and the summary lines; returns the exit status."""
-    lines = [f"{'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>6s} {'E':>6s} {'path':16s} "
-             f"{'status':9s} {'d/a':>9s} {'stable':>6s} {'newton':>6s} {'s':>6s}  snaps / reason"]
+    header = (f"{'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>6s} {'E':>6s} {'path':16s} "
+              f"{'status':9s} {'d/a':>9s} {'stable':>6s} {'newton':>6s} {'s':>6s}  snaps / reason")
+    lines = [header]
     for r in recs:
         d = f"{r['deflection']:9.5f}" if "deflection" in r else " " * 9
         snaps = "; ".join(f"{s[0]} lam={s[1]:.4g} a/R={s[2]:.4g} g={s[3]:.3g}"
                           for s in r.get("snaps", []))
         lines.append(f"{r['length']:5.2f} {r['tip_width']:5.2f} {r['curvature']:5.2f} "
                      f"{r['thickness']:6.4f} {r['modulus']:6.0f} {r['path']:16s} {r['status']:9s} "
-                     f"{d} {str(r.get('stable')):>6s} {r.get('newton_iterations', 0):6d} "
+                     f"{d} {r.get('stable')!s:>6s} {r.get('newton_iterations', 0):6d} "
                      f"{r['wall_time_s']:6.1f}  {snaps} {r.get('message') or r.get('error', '')}")
     count = {s: sum(r["status"] == s for r in recs) for s in ("converged", "failed", "crash")}
     unverified = [r for r in recs if r["status"] == "converged" and r.get("stable") is not True]
     snapped = [r for r in recs if r.get("snaps")]
     conv = [r for r in recs if r["status"] == "converged"]
-    lines += ["", f"summary: {len(recs)} solves, {count['converged']} converged, "
-              f"{count['failed']} failed cleanly, {count['crash']} crashed",
+    summary = (f"summary: {len(recs)} solves, {count['converged']} converged, "
+               f"{count['failed']} failed cleanly, {count['crash']} crashed")
+    lines += ["", summary,
               f"converged with stable False/None: {len(unverified)}",
               f"solves that snapped: {len(snapped)} ({sum(len(r['snaps']) for r in snapped)} snaps)",
               "newton iterations, snapping solves: "

@@ -18,6 +18,7 @@ need reproducible linear solves by default (issue 17, item 1, in
 stops after 5 or 8 iterations depending on round-off (the end state agrees to
 1e-13).
 """
+import importlib.util
 import json
 import os
 import subprocess
@@ -26,8 +27,9 @@ import sys
 import numpy as np
 import pytest
 
-from skfem_sheet import Sheet, SolveError, solve
+from skfem_sheet import Sheet, SolveError, continuation, solve
 from skfem_sheet.analyses import stability as stability_module
+from skfem_sheet.linalg import available_solvers
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -119,8 +121,6 @@ def test_an_unverifiable_unstable_end_state_is_a_failure_not_an_answer(monkeypat
         stable, k = real(problem, solver)
         return (False, 1) if stable else (stable, k)
 
-    import skfem_sheet.continuation as continuation
-
     monkeypatch.setattr(continuation, "stability", unstable)
     sheet = Sheet(length=0.6, tip_width=0.8, curvature=1.5)
     with pytest.raises(SolveError, match="unstable equilibrium"):
@@ -136,8 +136,6 @@ def test_an_unverifiable_unstable_end_state_is_a_failure_not_an_answer(monkeypat
 
 
 def _snap_sample_module():
-    import importlib.util
-
     path = os.path.join(ROOT, "benchmarks", "snap_sample.py")
     spec = importlib.util.spec_from_file_location("snap_sample", path)
     mod = importlib.util.module_from_spec(spec)
@@ -168,8 +166,6 @@ def test_snap_sample_draws_in_range_and_flags_unverified_results(capsys):
 def test_end_state_is_verified_when_the_solver_cannot_report_the_inertia():
     """PyAMG reports no inertia: the end state's inertia comes from a SuperLU
     factorisation of its tangent, and agrees with the direct solvers'."""
-    from skfem_sheet.linalg import available_solvers
-
     if "pyamg" not in available_solvers():
         pytest.skip("pyamg is not installed")
     sheet = Sheet(length=0.6, tip_width=0.8, curvature=1.5)
