@@ -12,6 +12,9 @@ load paths at a coarse mesh.  Every solve ends as
                  converged load and the reason);
 - ``crash``      any exception escaping ``solve`` (a bug).
 
+Each record also holds ``stable`` and ``snaps`` (issue 17): a converged
+result must be verified stable.
+
 Results are appended to a JSON-lines file as they finish, so an interrupted
 run resumes where it stopped (finished points are skipped).  A table and a
 summary line are printed at the end.
@@ -70,7 +73,8 @@ def run_point(p, path, hmax):
     return dict(status="converged" if r.converged else "failed", deflection=r.deflection,
                 message=r.message, kappa_reached=r.kappa, gravity_reached=r.gravity,
                 newton_iterations=r.newton_iterations, load_steps=r.load_steps,
-                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
+                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs,
+                stable=r.stable, snaps=[list(x) for x in r.snaps])
 
 
 def _read(out):
@@ -122,6 +126,7 @@ def main(argv=None):
             done[k] = rec
     if n_shard > 1:
         return 0
+    done = _read(args.out)  # with the solves of other workers on the same file (--reverse)
     recs = [done[key(p, path)] for p, path in todo]
     print(f"{'kind':7s} {'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>5s} {'E':>6s} {'path':16s} "
           f"{'status':9s} {'d/a':>8s} {'newton':>6s} {'s':>6s}  reason")
@@ -137,6 +142,11 @@ def main(argv=None):
     print(f"\nsummary: {len(recs)} solves, {count['converged']} converged, {count['failed']} "
           f"failed cleanly, {count['crash']} crashed; random points converged: "
           f"{100 * rate:.1f}% of {len(rand)}")
+    # records made before issue 17 have no "stable"/"snaps" fields
+    verified = [r for r in recs if r["status"] == "converged" and "stable" in r]
+    print(f"converged with stable False/None: {sum(r['stable'] is not True for r in verified)} "
+          f"of {len(verified)} recorded; solves that snapped: "
+          f"{sum(bool(r['snaps']) for r in verified)}")
     return 1 if count["crash"] else 0
 
 

@@ -14,20 +14,32 @@ Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps:
 every step is warm-started by a tangent predictor (one extra back-substitution
 with the last factorisation) and corrected by Newton; steps grow after easy
 corrections and are halved after failures.
+
+End states are verified: after a snap-through and at full load the inertia of
+the tangent is read (:func:`~skfem_sheet.analyses.stability.stability`); an
+unstable equilibrium is left along its unstable eigenvector by a
+pseudo-transient settle (recorded as a snap), and a path that cannot leave it
+fails with a message saying that it ended on an unstable equilibrium.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.sparse.linalg as spla
+from scipy.sparse.linalg import ArpackError, ArpackNoConvergence
 
-from .linalg import LinearSolverError
+from .analyses.stability import stability
+from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
 
 __all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
 
 PATHS = ("curvature-first", "gravity-first")
+
+#: Largest tangent whose inertia is checked with SuperLU when the solver cannot tell.
+_SUPERLU_CHECK_DOFS = 100_000
 
 
 @dataclass(frozen=True)
@@ -66,6 +78,18 @@ class StepOptions:
         is taken to end there (a fold): the step is solved by pseudo-transient
         continuation, which lets the sheet snap to the other branch, and the
         snap-through is recorded in ``PathOutcome.snaps``.
+    snap_radius : float
+        Largest displacement of one pseudo-transient step (units of a, times
+        the sheet length when it is longer than 1).
+    snap_iterations : int
+        Largest number of pseudo-transient steps of one snap (the snap is
+        then retried from a smaller load step, or the path fails).
+    verify : bool
+        Read the inertia after every snap and at full load, and leave an
+        unstable equilibrium (see :func:`follow_path`).
+    max_escapes : int
+        Attempts to leave an unstable equilibrium at one load before the path
+        fails.
     """
 
     initial_step: float = 0.25
@@ -78,6 +102,10 @@ class StepOptions:
     intermediate_utol: float = 1e-3
     predictor: str = "tangent"
     elastica_start: bool = True
+    snap_radius: float = 0.1
+    snap_iterations: int = 80
+    verify: bool = True
+    max_escapes: int = 2
 
     def __post_init__(self):
         check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
@@ -85,6 +113,9 @@ class StepOptions:
         check_range("max_step", self.max_step, self.initial_step, 1)
         check_range("grow", self.grow, 1, 10)
         check_range("max_correction", self.max_correction, 0, None, lo_open=True)
+        check_range("snap_radius", self.snap_radius, 0, None, lo_open=True)
+        check_range("snap_iterations", self.snap_iterations, 1, 1000)
+        check_range("max_escapes", self.max_escapes, 0, 10)
         if self.predictor not in ("tangent", "hermite"):
             raise ParameterError(f"predictor must be 'tangent' or 'hermite', got {self.predictor!r}")
 
@@ -102,6 +133,9 @@ class PathOutcome:
     rejected_steps: int = 0
     rejections: list = field(default_factory=list)  # (phase, lam tried, reason, iterations)
     snaps: list = field(default_factory=list)  # (phase, lam, kappa, g) where the branch was lost
+    stable: object = None  # inertia verdict at the end state (None: not known)
+    negative_eigenvalues: object = None
+    snap_iterations: int = 0  # Newton-type iterations spent in pseudo-transient settles
 
 
 def load_phases(path: str, kappa: float):
@@ -191,6 +225,133 @@ def _elastica_jump(problem, solver, stats, final, tight, loose):
     return newton(problem, w, 1.0, solver, tight if final else loose, stats)
 
 
+def _negatives(problem, solver):
+    """Negative directions of the factorised matrix on the incompressible
+    subspace, ``None`` if the back-end cannot tell (the pseudo-transient
+    shift control)."""
+    return stability(problem, solver)[1]
+
+
+def _verdict(problem, solver, w, stats):
+    """``(stable, k)`` of the equilibrium ``w`` from the last factorised
+    tangent (Newton's last iterate but one, within the tolerance of ``w``).
+    If that inertia cannot be trusted (or the back-end does not report it),
+    once more from the tangent at ``w``, and then from a SuperLU
+    factorisation of it (whose inertia is exact when it pivots on the
+    diagonal; only up to ``_SUPERLU_CHECK_DOFS`` unknowns, its fill grows
+    fast); ``solver`` is left factorised at ``w``."""
+    verdict = stability(problem, solver)
+    if verdict[0] is not None and not (verdict[0] is False and not verdict[1]):
+        return verdict
+    K = timed(stats, "assembly_s", problem.tangent, w)
+    try:
+        timed(stats, "linear_solve_s", solver.factorize, K, w)
+    except LinearSolverError:
+        return None, None
+    stats.factorizations += 1
+    verdict = stability(problem, solver)
+    if (verdict[0] is None and getattr(solver, "name", "") != "superlu"
+            and K.shape[0] <= _SUPERLU_CHECK_DOFS):
+        check = make_linear_solver("superlu")
+        try:
+            timed(stats, "linear_solve_s", check.factorize, K, w)
+        except LinearSolverError:
+            return None, None
+        stats.factorizations += 1
+        verdict = stability(problem, check)
+    return verdict
+
+
+def _unstable_direction(problem, solver, k):
+    """Displacement direction (on the free dofs, ``max |v_u| = 1``) of the most
+    negative eigenvalue found of ``K v = lambda M v`` on the incompressible
+    subspace, from a shift-invert Lanczos (ARPACK) with the factorised tangent
+    ``K``: ``(K^{-1} M)`` has the eigenvalues ``1/lambda`` (and 0 for the
+    pressure), so the largest ones in magnitude are the ``lambda`` nearest 0,
+    which near a lost fold or a saddle include the negative ones.
+    ``None`` if none of the ``k + 3`` nearest is negative."""
+    free = problem.free
+    n = len(free)
+    M = problem.assembler.matrix(problem.mass_data)
+    op = spla.LinearOperator((n, n), matvec=lambda x: solver.solve(M @ x), dtype=float)
+    v0 = solver.solve(M @ np.ones(n))  # deterministic start in the right space
+    nev = int(min(max(k, 1) + 3, n - 2))
+    try:
+        mu, vecs = spla.eigs(op, k=nev, which="LM", v0=v0, tol=1e-8, maxiter=50 * n)
+    except (ArpackError, ArpackNoConvergence):
+        return None
+    lam = np.full(nev, np.inf)
+    good = np.abs(mu) > 0
+    lam[good] = 1.0 / mu[good].real
+    i = int(np.argmin(lam))
+    if not lam[i] < 0:
+        return None
+    v = vecs[:, i].real
+    nu_free = free < problem.nu_dof
+    j = int(np.argmax(np.abs(v[nu_free])))
+    v = v / v[nu_free][j]  # fixed scale and sign
+    return v
+
+
+def _settle(problem, w, g, solver, stats, opts, loose, step_options, scale):
+    """Pseudo-transient settle at gravity ``g`` from ``w`` (a loose stopping
+    rule: a certified plain Newton step below ``intermediate_utol``), then
+    Newton to ``opts``, the tolerance that defines the end state.  Returns the
+    Newton result (its ``iterations`` are those of that final Newton solve)
+    and the number of pseudo-transient steps."""
+    pt = pseudo_transient(problem, w, g, solver, loose, stats,
+                          max_iterations=step_options.snap_iterations,
+                          radius=step_options.snap_radius * scale, negatives=_negatives)
+    if not pt.converged:
+        return pt, pt.iterations
+    return newton(problem, pt.w, g, solver, opts, stats), pt.iterations
+
+
+def _escape(problem, w, g, solver, stats, opts, loose, step_options, scale, k):
+    """Leave the unstable equilibrium ``w`` (the solver holds its tangent):
+    a step of ``0.05 scale`` along the unstable eigenvector (the side of lower
+    energy), then :func:`_settle`.  ``None`` if no unstable direction is found."""
+    v = _unstable_direction(problem, solver, k)
+    if v is None:
+        return None, 0
+    free = problem.free
+    trial = []
+    for sign in (1.0, -1.0):
+        wt = w.copy()
+        wt[free] += sign * 0.05 * scale * v
+        trial.append((problem.energy(wt, g), wt))
+    wt = trial[1][1] if trial[1][0] < trial[0][0] else trial[0][1]
+    return _settle(problem, wt, g, solver, stats, opts, loose, step_options, scale)
+
+
+def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options, scale):
+    """Verify the equilibrium ``w`` at ``(kappa, g)`` and leave it while it is
+    unstable.  Returns ``(w, stable, k, escaped, iterations, message)``:
+    ``escaped`` tells whether ``w`` changed, ``message`` is empty unless the
+    end state is still unstable."""
+    stable, k = _verdict(problem, solver, w, stats)
+    escaped, iterations = False, 0
+    for _ in range(step_options.max_escapes):
+        if stable is not False or not k:
+            break
+        res, n_pt = _escape(problem, w, g, solver, stats, opts, loose, step_options, scale, k)
+        iterations += n_pt
+        if res is None or not res.converged:
+            why = "no unstable direction found" if res is None else res.reason
+            msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
+                   f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g}; leaving it "
+                   f"failed: {why}")
+            return w, stable, k, escaped, iterations, msg
+        w, escaped = res.w, True
+        stable, k = _verdict(problem, solver, w, stats)
+    if stable is False and k:
+        msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
+               f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g} after "
+               f"{step_options.max_escapes} attempt(s) to leave it")
+        return w, stable, k, escaped, iterations, msg
+    return w, stable, k, escaped, iterations, ""
+
+
 def _growth(iterations, opts):
     """Step-size factor after a converged step: grow after easy corrections,
     shrink a little after hard ones (aiming at ``easy_iterations``)."""
@@ -224,8 +385,24 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     Returns
     -------
     PathOutcome
-        ``converged`` tells whether full load was reached; otherwise ``reason``,
+        ``converged`` tells whether full load was reached on an equilibrium
+        that is stable or whose stability the linear solver cannot tell
+        (``stable``, ``negative_eigenvalues``); otherwise ``reason``,
         ``kappa`` and ``g`` say how far it got and why it stopped.
+
+    Notes
+    -----
+    Where the second phase's steps have been cut below
+    ``StepOptions.snap_step`` the followed branch is taken to end at a fold:
+    the next step is settled by :func:`~skfem_sheet.newton.pseudo_transient`
+    (a loose, inertia-controlled settle) and a Newton solve, and a jump of
+    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  With
+    ``StepOptions.verify`` (default) the inertia is read after every such
+    settle and at full load; an unstable equilibrium is perturbed along its
+    unstable eigenvector and settled again (a snap at full load is recorded
+    as ``(last phase, 1.0, kappa, g)``), and if that fails
+    ``StepOptions.max_escapes`` times the path ends with ``converged=False``
+    and a ``reason`` that says it ended on an unstable equilibrium.
     """
     stats = stats if stats is not None else Stats()
     phases = load_phases(path, kappa)
@@ -280,25 +457,36 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             final = last_phase and lam_new == 1.0
             opts = newton_options if final else loose
             if snapping:
-                res = pseudo_transient(problem, w_pred, g_new, solver, opts, stats)
-                if res.converged and not final:
-                    # finish with plain Newton (sets up the factorisation at the
-                    # new state for the next predictor)
-                    res = newton(problem, res.w, g_new, solver, opts, stats)
+                # settle loosely, then Newton to this step's tolerance (which
+                # also sets up the factorisation at the new state for the
+                # next predictor)
+                res, n_pt = _settle(problem, w_pred, g_new, solver, stats, opts, loose,
+                                    step_options, scale)
+                out.snap_iterations += n_pt
             else:
                 res = newton(problem, w_pred, g_new, solver, opts, stats,
                              max_first_increment=guard)
             if res.converged:
+                w_new = res.w
                 if snapping:
+                    if step_options.verify:
+                        # the settle is drawn to stable states, but check
+                        w_new, _, _, _, n_e, msg = _make_stable(
+                            problem, w_new, k_new, g_new, solver, stats, opts, loose,
+                            step_options, scale)
+                        out.snap_iterations += n_e
+                        if msg:
+                            out.reason = f"{name} phase, snap at {lam_new:.4g} of its range: {msg}"
+                            return out
                     # a snap only if the sheet really left its branch; the
                     # damped iteration may also settle just short of the fold
                     nu = problem.nu_dof
                     # (a load step below snap_step moves nodes by a few 1e-2 at most)
-                    if np.abs(res.w[:nu] - w[:nu]).max() > 0.1 * scale:
+                    if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
                         out.snaps.append((name, lam_new, k_new, g_new))
                     snapping = False
                 prev = (lam, w)
-                w, lam = res.w, lam_new
+                w, lam = w_new, lam_new
                 out.w, out.kappa, out.g = w, k_new, g_new
                 out.steps.append((name, lam, res.iterations))
                 if on_step is not None:
@@ -320,5 +508,20 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                               f"(kappa={out.kappa:.4g}, g={out.g:.4g}): step below "
                               f"{step_options.min_step:g}; last Newton failure: {res.reason}")
                 return out
+    if step_options.verify:
+        # the end state must be a stable equilibrium (or say that it is not known)
+        w_end, stable, k, escaped, n_e, msg = _make_stable(
+            problem, w, out.kappa, out.g, solver, stats, newton_options, loose,
+            step_options, scale)
+        out.snap_iterations += n_e
+        out.stable, out.negative_eigenvalues = stable, k
+        if escaped:
+            out.snaps.append((phases[-1][0], 1.0, out.kappa, out.g))
+            out.w = w_end
+        if msg:
+            out.reason = msg
+            return out
+    else:
+        out.stable, out.negative_eigenvalues = stability(problem, solver)
     out.converged = True
     return out

@@ -9,7 +9,6 @@ from typing import ClassVar
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .analyses.stability import stability
 from .continuation import PATHS, StepOptions, follow_path
 from .io import write_result
 from .linalg import make_linear_solver
@@ -77,8 +76,12 @@ class Result:
         Whether the equilibrium is stable: the constrained Hessian (the tangent
         on the incompressible subspace) is positive definite, read off the
         inertia of the last factorised tangent (``None`` if the linear solver
-        cannot tell).  For a symmetric solve, stability against symmetric
-        perturbations.
+        cannot tell, also after refactorising at the end state).  For a
+        symmetric solve, stability against symmetric perturbations.  The load
+        path verifies it: a converged result is never known to be unstable
+        (an unstable end state is left along its unstable eigenvector, a snap
+        recorded in ``snaps``, or the solve fails saying that it ended on an
+        unstable equilibrium; see :func:`~skfem_sheet.continuation.follow_path`).
     negative_eigenvalues : int or None
         Number of negative eigenvalues of the constrained Hessian.
     refine : int
@@ -353,8 +356,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if bar is not None:
             bar.close()
     w = out.w
-    # inertia of the last factorised tangent (Newton's last iterate but one)
-    stable, n_neg = stability(problem, linear) if out.converged else (None, None)
+    # the load path verified its end state (the inertia of its tangent)
+    stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
     result = Result(
         sheet=sheet, path=path, hmax=hmax,
         deflection=tip_deflection(problem, w), converged=out.converged,

@@ -1,9 +1,17 @@
-"""newton.timed: the time of a call is added to the counter, also on errors."""
+"""newton.timed (the time of a call is added to the counter, also on errors) and the
+pseudo-transient settle."""
 import time
 
+import numpy as np
 import pytest
 
-from skfem_sheet.newton import Stats, timed
+from skfem_sheet import Sheet
+from skfem_sheet.analyses.stability import stability
+from skfem_sheet.continuation import StepOptions, _unstable_direction, follow_path
+from skfem_sheet.linalg import make_linear_solver
+from skfem_sheet.newton import NewtonOptions, Stats, newton, pseudo_transient, timed
+from skfem_sheet.params import ParameterError
+from skfem_sheet.solve import build_problem
 
 
 def test_timed_adds_the_wall_time_and_returns_the_result():
@@ -24,3 +32,82 @@ def test_timed_counts_a_call_that_raises():
     with pytest.raises(RuntimeError, match="boom"):
         timed(stats, "linear_solve_s", fail)
     assert stats.linear_solve_s >= 0.01
+
+
+# --------------------------------------------------------------------------------------
+# pseudo-transient settle and unstable directions (issue 17)
+# --------------------------------------------------------------------------------------
+def _flat_problem():
+    return build_problem(Sheet(length=0.6, tip_width=0.8, curvature=1.5), 0.2, None, 2, half=True)
+
+
+def _negatives(problem, solver):
+    return stability(problem, solver)[1]
+
+
+def test_pseudo_transient_settles_where_newton_converges():
+    """From the reference state at full gravity (with the clamp's curvature
+    imposed) the settle and a tight Newton solve reach the state Newton's load
+    stepping reaches, and stop on a certified plain Newton step."""
+    problem = _flat_problem()
+    solver = make_linear_solver("auto")
+    ref = follow_path(problem, "curvature-first", problem.sheet.curvature, solver)
+    assert ref.converged
+    w0 = np.zeros(problem.ndof)
+    w0[problem.clamp_dofs] = problem.clamp_values(problem.sheet.curvature)
+    stats = Stats()
+    loose = NewtonOptions(rtol=1.0, utol=1e-3)
+    pt = pseudo_transient(problem, w0, 1.0, solver, loose, stats, negatives=_negatives)
+    assert pt.converged and pt.reason == ""
+    assert pt.corrections[-1] <= 1e-3 < max(pt.corrections)
+    assert stats.factorizations >= pt.iterations == stats.newton_iterations
+    final = newton(problem, pt.w, 1.0, solver, NewtonOptions(), stats)
+    assert final.converged and final.iterations <= 4
+    d = np.abs(final.w[: problem.nu_dof] - ref.w[: problem.nu_dof]).max()
+    assert d < 1e-5
+    # the same inputs give the same iteration and the same state, bit for bit
+    again = pseudo_transient(problem, w0, 1.0, solver, loose, Stats(), negatives=_negatives)
+    assert again.iterations == pt.iterations and np.array_equal(again.w, pt.w)
+
+
+def test_pseudo_transient_refuses_steps_on_an_indefinite_model():
+    """A shifted tangent reported indefinite is refactorised with a larger
+    shift, never used for a step; a back-end that never certifies it ends the
+    settle with a reason instead of a step."""
+    problem = _flat_problem()
+    solver = make_linear_solver("auto")
+    w0 = np.zeros(problem.ndof)
+    w0[problem.clamp_dofs] = problem.clamp_values(problem.sheet.curvature)
+    stats = Stats()
+    res = pseudo_transient(problem, w0, 1.0, solver, NewtonOptions(rtol=1.0, utol=1e-3), stats,
+                           negatives=lambda p, s: 1)
+    # sigma from 100 by factors of 4 up to 1e6 times the shift: 10 refactorisations
+    assert not res.converged and "positive definite" in res.reason
+    assert res.iterations == 0 and stats.newton_iterations == 0 and stats.factorizations >= 10
+    with pytest.raises(ParameterError, match="snap_radius"):
+        StepOptions(snap_radius=0.0)
+
+
+def test_unstable_direction_is_the_negative_eigenvector():
+    """Shift a stable tangent by ``-s M`` until one direction on the
+    incompressible subspace is negative: the direction found must satisfy
+    ``(K - s M) v = lambda M v`` with ``lambda < 0`` (pressure rows included)."""
+    problem = _flat_problem()
+    solver = make_linear_solver("superlu")
+    out = follow_path(problem, "curvature-first", problem.sheet.curvature, solver)
+    K = problem.tangent(out.w)
+    M = problem.assembler.matrix(problem.mass_data)
+    s, k = 1e-3, 0
+    while not k:
+        s *= 2.0
+        solver.factorize((K - s * M).tocsr())
+        k = stability(problem, solver)[1]
+        assert k is not None, "SuperLU pivoted off the diagonal"
+    v = _unstable_direction(problem, solver, k)
+    assert v is not None
+    A = (K - s * M).tocsr()
+    lam = float(v @ (A @ v)) / float(v @ (M @ v))
+    assert lam < 0
+    np.testing.assert_allclose(A @ v, lam * (M @ v), atol=1e-6 * np.abs(A @ v).max())
+    nu_free = problem.free < problem.nu_dof
+    assert np.abs(v[nu_free]).max() == pytest.approx(1.0)

@@ -1,0 +1,161 @@
+"""Verified end states and snap cost over thin and soft sheets (issue 17).
+
+    python benchmarks/snap_sample.py [--n 50] [--seed 17] [--hmax 0.1] [--out snap_sample.jsonl]
+
+A seeded random sample of ``--n`` sheets with L/a in [0.2, 3], b/a in [0, 1],
+a/R in [0, 6] (spread as in ``benchmarks/stress.py``), thickness h/a in
+[0.02, 0.045] and modulus E/(rho g a) in [400, 2000], each solved along both
+load paths at ``min(hmax, L/2)`` with ``on_failure="return"``.  Per solve it
+records the status (``converged``, ``failed`` or ``crash``), d, the Newton
+iterations, the verdict ``stable`` and every snap ``(phase, lam, kappa, g)``.
+
+The summary counts
+
+- ``converged=True`` with ``stable`` False or None: must be zero (a load
+  path verifies its end state; only a linear solver that cannot report the
+  inertia may leave ``stable=None``);
+- the solves that snapped, and the iteration statistics of snapping and
+  non-snapping solves (median, 90th percentile, max).
+
+Results are appended to a JSON-lines file as they finish (an interrupted run
+resumes; ``--shard k:n`` lets several processes share one file, and a last run
+without it prints the table).  Exit status 1 if a solve crashed or a
+converged result is not verified stable.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+import traceback
+
+import numpy as np
+
+try:
+    import skfem_sheet  # noqa: F401
+except ImportError:  # run from a checkout without installing: use the repository next door
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from skfem_sheet import Sheet, solve
+from skfem_sheet.continuation import PATHS
+
+
+def sample(n, seed):
+    """``n`` seeded random sheets (dicts of Sheet arguments)."""
+    rng = np.random.default_rng(seed)
+    cols = (rng.uniform(0.2, 3.0, n), rng.uniform(0, 1, n), rng.uniform(0, 6, n),
+            rng.uniform(0.02, 0.045, n), rng.uniform(400, 2000, n))
+    return [dict(length=float(L), tip_width=float(b), curvature=float(k), thickness=float(t),
+                 modulus=float(E)) for L, b, k, t, E in zip(*cols)]
+
+
+def key(p, path):
+    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
+                       p["modulus"], path])
+
+
+def run_point(p, path, hmax):
+    """One solve as a JSON-ready record."""
+    t0 = time.perf_counter()
+    try:
+        r = solve(Sheet(**p), path=path, hmax=min(hmax, p["length"] / 2), on_failure="return")
+    except Exception as err:  # noqa: BLE001 - a crash is what this benchmark counts
+        return dict(status="crash", error=f"{type(err).__name__}: {err}",
+                    traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
+    return dict(status="converged" if r.converged else "failed", deflection=r.deflection,
+                message=r.message, stable=r.stable, negative_eigenvalues=r.negative_eigenvalues,
+                snaps=[list(s) for s in r.snaps], branch=r.branch,
+                newton_iterations=r.newton_iterations, factorizations=r.factorizations,
+                load_steps=r.load_steps, rejected_steps=r.rejected_steps,
+                wall_time_s=r.wall_time_s, dofs=r.dofs)
+
+
+def _read(out):
+    done = {}
+    if os.path.exists(out):
+        with open(out) as f:
+            for line in f:
+                try:
+                    rec = json.loads(line)
+                except json.JSONDecodeError:  # a line cut by a kill: recompute it
+                    continue
+                done[rec["key"]] = rec
+    return done
+
+
+def _stats(xs):
+    if not xs:
+        return "-"
+    xs = np.asarray(xs)
+    return (f"n={len(xs)} median {np.median(xs):.0f}, p90 {np.percentile(xs, 90):.0f}, "
+            f"max {xs.max():.0f}")
+
+
+def report(recs):
+    """The table and the summary lines; returns the exit status."""
+    header = (f"{'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>6s} {'E':>6s} {'path':16s} "
+              f"{'status':9s} {'d/a':>9s} {'stable':>6s} {'newton':>6s} {'s':>6s}  snaps / reason")
+    lines = [header]
+    for r in recs:
+        d = f"{r['deflection']:9.5f}" if "deflection" in r else " " * 9
+        snaps = "; ".join(f"{s[0]} lam={s[1]:.4g} a/R={s[2]:.4g} g={s[3]:.3g}"
+                          for s in r.get("snaps", []))
+        lines.append(f"{r['length']:5.2f} {r['tip_width']:5.2f} {r['curvature']:5.2f} "
+                     f"{r['thickness']:6.4f} {r['modulus']:6.0f} {r['path']:16s} {r['status']:9s} "
+                     f"{d} {r.get('stable')!s:>6s} {r.get('newton_iterations', 0):6d} "
+                     f"{r['wall_time_s']:6.1f}  {snaps} {r.get('message') or r.get('error', '')}")
+    count = {s: sum(r["status"] == s for r in recs) for s in ("converged", "failed", "crash")}
+    unverified = [r for r in recs if r["status"] == "converged" and r.get("stable") is not True]
+    snapped = [r for r in recs if r.get("snaps")]
+    conv = [r for r in recs if r["status"] == "converged"]
+    summary = (f"summary: {len(recs)} solves, {count['converged']} converged, "
+               f"{count['failed']} failed cleanly, {count['crash']} crashed")
+    lines += ["", summary,
+              f"converged with stable False/None: {len(unverified)}",
+              f"solves that snapped: {len(snapped)} ({sum(len(r['snaps']) for r in snapped)} snaps)",
+              "newton iterations, snapping solves: "
+              + _stats([r["newton_iterations"] for r in conv if r.get("snaps")]),
+              "newton iterations, other solves:    "
+              + _stats([r["newton_iterations"] for r in conv if not r.get("snaps")]),
+              f"total wall time of the solves: {sum(r['wall_time_s'] for r in recs):.0f} s"]
+    for r in unverified:
+        lines.append(f"UNVERIFIED: {r['key']} stable={r.get('stable')}")
+    print("\n".join(lines))
+    return 1 if count["crash"] or unverified else 0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=50)
+    ap.add_argument("--seed", type=int, default=17)
+    ap.add_argument("--hmax", type=float, default=0.1)
+    ap.add_argument("--out", default="snap_sample.jsonl")
+    ap.add_argument("--shard", default="0:1",
+                    help="k:n runs every n-th solve starting at k (several processes can "
+                         "share one --out file; a last run without --shard prints the table)")
+    args = ap.parse_args(argv)
+    k_shard, n_shard = (int(x) for x in args.shard.split(":"))
+    done = _read(args.out)
+    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
+    mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
+    with open(args.out, "a") as f:
+        for i, (p, path) in enumerate(mine):
+            k = key(p, path)
+            if k in done:
+                continue
+            rec = dict(key=k, path=path, **p, **run_point(p, path, args.hmax))
+            f.write(json.dumps(rec, default=float) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+            done[k] = rec
+            print(f"[{i + 1}/{len(mine)}] {path} L={p['length']:.2f} a/R={p['curvature']:.2f}: "
+                  f"{rec['status']} {rec.get('newton_iterations')} it, stable={rec.get('stable')}, "
+                  f"{len(rec.get('snaps', []))} snap(s), {rec['wall_time_s']:.1f} s",
+                  file=sys.stderr, flush=True)
+    if n_shard > 1:
+        return 0
+    return report([done[key(p, path)] for p, path in todo])
+
+
+if __name__ == "__main__":
+    sys.exit(main())
