@@ -52,6 +52,8 @@ class Result:
         Load reached (curvature a/R and gravity factor).
     dofs : int
     newton_iterations, factorizations, load_steps, rejected_steps : int
+    back_substitutions : int
+        Right-hand sides solved with a factorisation (as the linear solver counts them).
     wall_time_s, assembly_s, linear_solve_s : float
     energy : float
         Total potential energy at the last converged load.
@@ -116,6 +118,7 @@ class Result:
     stable: object = None
     negative_eigenvalues: object = None
     refine: int = 0
+    back_substitutions: int = 0
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -167,6 +170,7 @@ class Result:
         ("kappa_reached", "float", lambda r: r.kappa),
         ("gravity_reached", "float", lambda r: r.gravity),
         ("factorizations", "int", lambda r: r.factorizations),
+        ("back_substitutions", "int", lambda r: r.back_substitutions),
         ("rejected_steps", "int", lambda r: r.rejected_steps),
         ("linear_solver", "str", lambda r: r.solver),
         ("layers_used", "int", lambda r: r.layers),
@@ -216,7 +220,7 @@ class Result:
         params.update(layers=rec.pop("layers_used"), refine=rec.pop("refine"))
         out = {k: rec.pop(k) for k in (
             "deflection", "converged", "message", "path", "dofs", "newton_iterations",
-            "factorizations", "load_steps", "rejected_steps", "wall_time_s", "linear_solve_s",
+            "factorizations", "back_substitutions", "load_steps", "rejected_steps", "wall_time_s", "linear_solve_s",
             "assembly_s", "energy", "volume_change", "kappa_reached", "gravity_reached")}
         out["solver"] = rec.pop("linear_solver")
         out.update(rec)  # symmetric, branch, stable, ... and any field added to the record
@@ -229,6 +233,12 @@ class Result:
         """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu) or
         the summary (``.json``)."""
         write_result(self, filename)
+
+
+def _back_substitutions(linear) -> int:
+    """Right-hand sides the linear solver back-substituted (0 if it does not count)."""
+    counts = getattr(linear, "counts", None)
+    return int(counts.back_substitutions) if counts is not None else 0
 
 
 def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int = 2,
@@ -325,6 +335,11 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                          f"{what} gives about {ndofs:,} unknowns, "
                          f"more than the {MAX_DOFS:,} that fit in memory here")
     linear = make_linear_solver(solver)
+    for name, value, kind in (("newton_options", newton_options, NewtonOptions),
+                              ("step_options", step_options, StepOptions)):
+        if value is not None and not isinstance(value, kind):
+            raise ParameterError(f"{name} must be a {kind.__name__} or None, "
+                                 f"got {type(value).__name__}")
     newton_options = newton_options or NewtonOptions()
     step_options = step_options or StepOptions()
 
@@ -372,7 +387,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         solver=linear.name, layers=problem.sheet_mesh.layers,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
         branch=_branch(path, out.snaps), stable=stable, negative_eigenvalues=n_neg,
-        refine=int(refine), problem=problem, w=w)
+        refine=int(refine), problem=problem, w=w,
+        back_substitutions=_back_substitutions(linear))
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result

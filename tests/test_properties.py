@@ -414,15 +414,13 @@ def _si(**change):
                    radius=0.02, youngs_modulus=4.5e5, density=1250.0), **change}
 
 
-KNOWN_BUGS = {
-    # solve: newton_options / step_options are not checked
-    "solve: solve(newton_options='x')": lambda: solve(Sheet(0.5), hmax=0.3, newton_options="x"),
-    "solve: solve(step_options=1)": lambda: solve(Sheet(0.5), hmax=0.3, step_options=1),
-}
-
 #: Found by the properties above and fixed (session 5): each must now raise a
 #: ParameterError naming its parameter.
 FIXED_BUGS = {
+    "solve: solve(newton_options='x')":
+        (lambda: solve(Sheet(0.5), hmax=0.3, newton_options="x"), "newton_options"),
+    "solve: solve(step_options=1)":
+        (lambda: solve(Sheet(0.5), hmax=0.3, step_options=1), "step_options"),
     "params: Sheet(length=10**400)": (lambda: Sheet(length=10**400), "length"),
     "params: Sheet.from_si(base_width=10**400)":
         (lambda: Sheet.from_si(**_si(base_width=10**400)), "base_width"),
@@ -450,9 +448,3 @@ def test_fixed_bug_raises_parameter_error_naming_the_parameter(no_meshing, case)
     with pytest.raises(ParameterError, match=name):
         fn()
 
-
-@pytest.mark.xfail(strict=True, reason="known input-validation bugs, reported (not owned here)")
-@pytest.mark.parametrize("case", sorted(KNOWN_BUGS))
-def test_known_bug_raises_parameter_error(no_meshing, case):
-    with pytest.raises(ParameterError):
-        KNOWN_BUGS[case]()
