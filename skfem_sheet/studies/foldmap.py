@@ -587,7 +587,9 @@ def curve_halves(row):
     curve in (L, a/R)), both starting at the turning point of ``q`` (the
     cusp), and ``cusp`` = ``(q*, L*)`` (None if the curve did not turn).
     The points before the turning point (in the order traced, from the start
-    value) are the standout fold ``L1*``, those after it the pop-up fold.
+    value) are the standout fold ``L1*``, those after it the pop-up fold; the
+    point at the turn goes with its ``kind`` (with both if the kinds do not
+    change along the curve).
 
     Examples
     --------
@@ -612,7 +614,11 @@ def curve_halves(row):
         order = np.argsort(q)
         return {"standout": (q[order], L[order]), "popup": (np.empty(0), np.empty(0)),
                 "cusp": None}
+    kinds = [d[2] if len(d) > 2 else "" for d in data]
     up, down = slice(0, k + 1), slice(k, len(q))
+    if kinds[0] == "standout" and kinds[-1] == "popup":  # the kinds say where the point at k is
+        up, down = (slice(0, k + 1), slice(k + 1, len(q))) if kinds[k] == "standout" else \
+            (slice(0, k), slice(k, len(q)))
     halves = {}
     for name, sl in (("standout", up), ("popup", down)):
         qq, LL = q[sl], L[sl]
