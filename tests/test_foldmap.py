@@ -266,3 +266,48 @@ def test_cli_fold_map_curves_bad_input_is_one_line():
     out = subprocess.run([sys.executable, "-m", "skfem_sheet", "fold-map", "--method", "grid",
                           "--rectangle", "2.5"], capture_output=True, text=True)
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "--rectangle" in out.stderr
+
+
+def _synthetic_curve(c):
+    """A fold curve of the shape traced: L1*(b) down to the cusp, L0*(b) back up."""
+    b_star, L_star = 0.6, 1.0 + 0.1 * c
+    bs = np.linspace(1.0, b_star + 0.01, 8)
+    up = [[b, L_star + 0.05 * c * (b - b_star) ** 0.5, "standout"] for b in bs]
+    down = [[b, L_star - 0.02 * c * (b - b_star) ** 0.5, "popup"] for b in bs[::-1]]
+    return dict(_curve_row(c, b_star, L_star, up + down), converged=True, completed=True)
+
+
+def test_figures_draw_the_bistable_region_from_fold_curves(tmp_path):
+    """fig7: one chain per a/R from the cusp up, the critical curve through
+    the cusps and the rectangle's critical a/R; fig6: the traced curve as the
+    boundary with its cusp, markers above the cusp from the curve."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from skfem_sheet.figures.data import curve_region
+    from skfem_sheet.figures.figure6 import draw_fig6
+    from skfem_sheet.figures.figure7 import draw_fig7
+
+    rows = [_synthetic_curve(c) for c in (2.5, 5.0)]
+    rows.append(dict(_curve_row(2.5, 1.2, 0.95, [], second="curvature"), converged=True))
+    df = pd.DataFrame(rows)
+    reg = curve_region(df)
+    assert sorted(reg["chains"]) == [1.2, 2.5, 5.0] and reg["edge"] == (1.0, 1.2, 0.95)
+    chain = reg["chains"][2.5]
+    assert chain[0] == (0.6, 1.25, 1.25)  # the cusp first
+    assert all(l0 < l1 for _, l0, l1 in chain[1:])
+    assert [c[1] for c in reg["critical"]] == [1.2, 2.5, 5.0]
+    fig = draw_fig7(df, "quick", region=reg)
+    fig.savefig(tmp_path / "f7.png")
+    rom = pd.DataFrame([dict(curvature=k, tip_width=b, length=L, direction=dr, deflection=L - 1,
+                             converged=True, stable=True, jumped=False)
+                        for k in (2.5, 5.0) for b in (0.0, 1.0) for L in (1.0, 2.0)
+                        for dr in ("increasing", "decreasing")])
+    fe = pd.DataFrame(columns=list(fm.MAP_COLUMNS))
+    fig = draw_fig6(fe, rom, "quick", mode_lengths=np.arange(0.6, 2.81, 0.2), curves=df)
+    fig.savefig(tmp_path / "f6.png")
+    ax = fig.axes[0]
+    (cusp,) = [ln for ln in ax.get_lines() if ln.get_gid() == "fe-cusp|k=2.5"]
+    assert cusp.get_xdata()[0] == pytest.approx(1.25) and cusp.get_ydata()[0] == 0.6
+    (dia,) = [ln for ln in ax.get_lines() if ln.get_gid() == "fe-curvature|k=2.5"]
+    assert min(dia.get_ydata()) > 0.6  # markers only above the cusp (no map rows below)
