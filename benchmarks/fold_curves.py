@@ -19,8 +19,11 @@ Measured wall times depend on the load of the machine (the load average at
 the start is recorded).
 """
 import argparse
+import json
 import os
 import time
+
+import pandas as pd
 
 from skfem_sheet.bistability import fold_lengths
 from skfem_sheet.figures.data import fold_curve_points, fold_curve_table
@@ -56,10 +59,31 @@ def pointwise_case(curvature, hmax):
                 popup_length=r.popup_length, newton_iterations=int(its), wall_time_s=wall)
 
 
-def map_case(quality, data_dir, workers):
+def _journalled(quality, data_dir):
+    """The curves of the quality already in the table's journal (nothing computed)."""
+    path = os.path.join(data_dir, f"foldcurves-{quality}.csv.journal.jsonl")
+    want = {(p["second"], p["curvature"]) for p in fold_curve_points(quality)}
+    recs = {}
+    if os.path.exists(path):
+        with open(path) as fh:
+            for line in fh:
+                try:
+                    r = json.loads(line)
+                except ValueError:
+                    continue  # a line cut short
+                if (r.get("second"), r.get("curvature")) in want:
+                    recs[(r["second"], r["curvature"])] = r
+    return pd.DataFrame(list(recs.values())), sorted(want - set(recs))
+
+
+def map_case(quality, data_dir, workers, partial=False):
     t0 = time.perf_counter()
-    df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress=False,
-                          workers=workers)
+    missing = []
+    if partial:
+        df, missing = _journalled(quality, data_dir)
+    else:
+        df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress=False,
+                              workers=workers)
     wall = time.perf_counter() - t0
     rows = []
     for _, r in df.iterrows():
@@ -74,7 +98,8 @@ def map_case(quality, data_dir, workers):
     return dict(quality=quality, elapsed_s=wall, cpu_s=float(df.wall_time_s.sum()),
                 curves=len(df), completed=int(df.completed.sum()),
                 not_bistable=int((~df.bistable & df.converged).sum()),
-                failed=int((~df.converged).sum()), rows=rows)
+                failed=int((~df.converged).sum()), rows=rows,
+                missing=[list(m) for m in missing])
 
 
 def main(argv=None):
@@ -85,11 +110,14 @@ def main(argv=None):
                     help="also the point-by-point search at b/a = 1 and this a/R")
     ap.add_argument("--map", default=None, choices=("quick", "paper"))
     ap.add_argument("--data-dir", default="skfem_sheet_data")
+    ap.add_argument("--partial", action="store_true",
+                    help="--map: report the curves already in the table, compute nothing")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
     out = dict(machine=machine_info(), curves=[], pointwise=None, map=None)
     curvatures = [float(x) for x in args.curvatures.split(",") if x]
+    print(" ".join(["python benchmarks/fold_curves.py", *(argv or __import__("sys").argv[1:])]))
     print(f"fold curves at hmax {args.hmax:g} (load average at start "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     print("  a/R  points  fact/pt  wall s      L1*(1)   L0*(1)   cusp b/a  cusp L  remeshes")
@@ -109,7 +137,7 @@ def main(argv=None):
               f"L1* {_fmt(r['standout_length'])}, L0* {_fmt(r['popup_length'])}, "
               f"{r['newton_iterations']} Newton iterations, {r['wall_time_s']:.0f} s", flush=True)
     if args.map:
-        m = map_case(args.map, args.data_dir, args.workers)
+        m = map_case(args.map, args.data_dir, args.workers, args.partial)
         out["map"] = m
         print(f"map of fold curves, quality {args.map}: {m['curves']} curves, "
               f"{m['completed']} completed, {m['not_bistable']} not bistable, "
@@ -126,6 +154,8 @@ def main(argv=None):
                   f"{r['remeshes'] if r['remeshes'] is not None else '-':>8}  "
                   f"{_fmt(r['wall_time_s'], '6.0f')}"
                   + ("" if r["completed"] else f"  {r['message'] or r['error']}"))
+        if m["missing"]:
+            print("not yet in the table: " + ", ".join(f"{s} a/R {c:g}" for s, c in m["missing"]))
     if args.json:
         atomic_write(args.json, dumps_json(out, indent=2))
 

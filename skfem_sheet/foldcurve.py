@@ -621,9 +621,11 @@ class _Maker:
 
 def _standout_fold(make, P, u, p, hi, tol):
     """Natural continuation in L from ``(u, p)`` to the first fold, remeshing
-    every :data:`REMESH_STRETCH`.  Returns ``(P, fold or None, factorisations,
+    every :data:`REMESH_STRETCH`; where Newton fails short of the fold without
+    locating it, the fold is located from the last point, or (twice at most)
+    the continuation goes on from there on a fresh mesh.  Returns ``(P, fold or None, factorisations,
     reason)``; ``reason`` is ``""`` when the branch reached ``hi`` without a fold."""
-    nfact = 0
+    nfact, retries = 0, 0
     for _ in range(MAX_REMESHES + 1):
         stop = min(hi, P.mesh_parameters[0] * REMESH_STRETCH)
         branch = natural(P, u, p, "L", stop, step=0.05, min_step=1e-3, tol=tol, jump=0.1,
@@ -632,7 +634,20 @@ def _standout_fold(make, P, u, p, hi, tol):
         if branch.fold is not None:
             return P, branch.fold, nfact, f"fold: {branch.reason}"
         if not branch.completed:
-            return P, None, nfact, branch.reason or "natural continuation in L failed"
+            if not branch.points or retries >= 2:
+                return P, None, nfact, branch.reason or "natural continuation in L failed"
+            # Newton failed short of the fold without locating it: locate it
+            # from the last point directly, else go on from there on a fresh mesh
+            last = branch.points[-1]
+            fold, res = locate_fold(P, last.u, last.p, "L", tol=tol)
+            nfact += res.iterations
+            if (fold is not None and fold.side < 0
+                    and -1e-3 <= fold.value - last.p[0] <= 0.1):
+                return P, fold, nfact, f"fold located from the last point ({branch.reason})"
+            retries += 1
+            P, u, _ = make.remesh(P, last.u, last.p)
+            p = last.p
+            continue
         last = branch.points[-1]
         if stop >= hi - 1e-12:
             return P, None, nfact, ""
