@@ -19,6 +19,7 @@ import os
 import numpy as np
 import pandas as pd
 
+from ..params import ParameterError
 from ..studies import foldmap
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
@@ -26,7 +27,11 @@ from .common import DEFAULT_DATA_DIR, quality_settings
 __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "branch_snapped",
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
-           "curve_region", "curve_modes"]
+           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method"]
+
+#: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
+#: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
+FIGURE_METHOD = "curves"
 
 #: The clamp curvatures of the fold curves of a quality (every 0.25 from 1 to 5).
 CURVE_CURVATURES = {q: tuple(float(x) for x in np.round(np.arange(1.0, 5.0001, 0.25), 6))
@@ -82,6 +87,20 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     """
     table = os.path.join(data_folder(data_dir), f"foldmap-{quality}.csv")
     return foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+
+
+def figure_method(method=None) -> str:
+    """``method``, or :data:`FIGURE_METHOD` if None; checked.
+
+    Examples
+    --------
+    >>> figure_method(), figure_method("grid")
+    ('curves', 'grid')
+    """
+    method = FIGURE_METHOD if method is None else method
+    if method not in ("curves", "grid"):
+        raise ParameterError(f"method must be 'curves' or 'grid', got {method!r}")
+    return method
 
 
 def fold_curve_points(quality: str = "quick", curvatures=None, rectangle: bool = True) -> list:

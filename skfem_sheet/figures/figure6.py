@@ -23,13 +23,13 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from ..params import ParameterError
 from ..reduced import maps
 from .cache import cached, data_folder
 from .common import DEFAULT_DATA_DIR, QUALITIES, arange, quality_settings
 from .data import (
     curve_fold_lines,
     curve_modes,
+    figure_method,
     fold_curve_points,
     fold_curve_table,
     fold_lines,
@@ -296,10 +296,11 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None, curves=None):
 
 
 def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
-         method="curves"):
+         method=None):
     """Fig. 6: ribbon-model map of d/a over (L/a, b/a) with the FE modes and bistable region.
 
-    ``method="curves"`` (default): the fold curves at a/R = 2.5 and 5 (the
+    ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
+    ``method="curves"`` (the default there): the fold curves at a/R = 2.5 and 5 (the
     quality's fold-curve table), and fold-map points only at the shape
     factors of the grid at or below each cusp; ``"grid"``: every point of
     :func:`fig6_points` from the fold map.
@@ -312,8 +313,7 @@ def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig6("quick").savefig("fig6.png", dpi=200)  # doctest: +SKIP
     """
-    if method not in ("curves", "grid"):
-        raise ParameterError(f"method must be 'curves' or 'grid', got {method!r}")
+    method = figure_method(method)
     Lm = arange(*quality_settings(quality)["fig6_lengths"])
     rom = fig6_ribbon(quality, data_dir, progress, workers)
     if method == "grid":

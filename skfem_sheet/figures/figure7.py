@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParameterError
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .data import (
     curve_region,
+    figure_method,
     fold_curve_points,
     fold_curve_table,
     fold_lines,
@@ -258,10 +258,11 @@ def draw_fig7(df, quality: str = "paper", region=None):
 
 
 def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
-         method="curves"):
+         method=None):
     """Fig. 7: the bistable region in (L/a, b/a, a/R).
 
-    ``method="curves"`` (default): from the quality's fold curves
+    ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
+    ``method="curves"`` (the default there): from the quality's fold curves
     (:func:`skfem_sheet.figures.data.fold_curve_points`, cached in
     ``data_dir/foldcurves-<quality>.csv``; the curves not yet traced are
     traced, in parallel and resumably); ``"grid"``: from the fold-map points
@@ -275,10 +276,9 @@ def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig7("quick").savefig("fig7.png", dpi=200)  # doctest: +SKIP
     """
+    method = figure_method(method)
     if method == "curves":
         df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress, workers)
         return draw_fig7(df, quality, region=curve_region(df))
-    if method != "grid":
-        raise ParameterError(f"method must be 'curves' or 'grid', got {method!r}")
     df = fold_map_table(fig7_points(quality), quality, data_dir, progress, workers)
     return draw_fig7(df, quality)
