@@ -71,7 +71,7 @@ MIN_SQUEEZE = 0.15
 #: this factor (or compressed by its inverse) ...
 REMESH_STRETCH = 1.35
 #: ... or its tip width is below this fraction of the mesh's (or above its inverse).
-REMESH_SQUEEZE = 0.7
+REMESH_SQUEEZE = 0.5
 #: Largest number of remeshes of one trace.
 MAX_REMESHES = 40
 
@@ -673,6 +673,13 @@ def _turning_point(points, key):
     return {key: float(np.polyval(cq, s_min)), "length": float(np.polyval(cL, s_min))}
 
 
+def _as_fold_in_L(P, fold, tol):
+    """A fold located in the second parameter, located again in L from there
+    (fold_curve starts from a fold in L); None if that fails."""
+    again, _ = locate_fold(P, fold.u, fold.p, "L", v0=fold.v, tol=tol)
+    return again
+
+
 def _strip(pt):
     return dataclasses.replace(pt, u=None)
 
@@ -758,6 +765,10 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
             # a fresh mesh at the fold, the state and the null vector moved onto it
             P, u, _ = make.remesh(P, last.u, last.p)
             fold, res = locate_fold(P, u, last.p, "L", tol=tol)
+            if fold is None:  # near the cusp the fold in L degenerates: in p_j at fixed L
+                fold, res = locate_fold(P, u, last.p, name, tol=tol)
+                if fold is not None:
+                    fold = _as_fold_in_L(P, fold, tol)
             if fold is None:
                 reason = (f"the fold was not found again after remeshing at L/a = {Lc:.4f}, "
                           f"{name} = {qc:.4f}: {res.reason}")
