@@ -1,25 +1,62 @@
-"""Bistability map (issue 4, item 5; data of the paper's Figs. 6 and 7).
+"""Bistability map (issue 4, item 5; issue 19, item 4; data of the paper's Figs. 6 and 7).
 
-Runs the fold map of :data:`skfem_sheet.figures.QUICK_GRID` (or the paper grid)
-into a resumable table and prints L0*, L1*, the bistable flag per (b/a, a/R)
-and the critical shape factor (b/a)* of each curvature.  Re-running with the
-same table computes nothing again.
+``--method curves`` (default): the fold curves of the figures' quality (one
+per a/R from 1 to 5 every 0.25, and the rectangle's curve in (L, a/R)) into a
+resumable table; prints L1*(1), L0*(1), the cusp (b/a)* per a/R and the
+rectangle's critical a/R.  ``--method grid``: the point-by-point fold map of
+:data:`skfem_sheet.figures.QUICK_GRID` (or the paper grid), L0*, L1*, the
+bistable flag per (b/a, a/R) and the bracketed (b/a)* (the reference).
+Re-running with the same table computes nothing again.
 
-    python benchmarks/bistability_map.py --table skfem_sheet_data/foldmap-quick.csv
+    python benchmarks/bistability_map.py --table skfem_sheet_data/foldcurves-quick.csv
+    python benchmarks/bistability_map.py --method grid --table skfem_sheet_data/foldmap-quick.csv
 """
 import argparse
 import math
 
 from skfem_sheet import figures
-from skfem_sheet.studies.foldmap import critical_tip_width, fold_map
+from skfem_sheet.figures.data import fold_curve_points
+from skfem_sheet.studies.foldmap import critical_curve, critical_tip_width, fold_curves, fold_map
+
+
+def curves(args):
+    points = fold_curve_points(args.quality)
+    df = fold_curves(points, table=args.table, workers=args.workers)
+    print(f"fold curves, quality {args.quality}: hmax = {points[0]['hmax']:g}; {len(df)} "
+          f"curves, {int(df.completed.sum())} completed, "
+          f"{int((~df.bistable & df.converged).sum())} not bistable, "
+          f"{int((~df.converged).sum())} failed; {df.wall_time_s.sum() / 60:.0f} CPU-min")
+
+    def f(x):
+        return "   none" if not math.isfinite(x) else f"{x:7.4f}"
+
+    print("  curve       a/R      L1*      L0*  cusp b/a  cusp a/R   cusp L  points  fact/pt"
+          "  wall s")
+    for _, r in df.iterrows():
+        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
+        print(f"  {which}  {r.curvature:5.2f}  {f(r.standout_length)}  {f(r.popup_length)}"
+              f"  {f(r.cusp_tip_width)}   {f(r.cusp_curvature)}  {f(r.cusp_length)}  "
+              f"{int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
+              + ("" if r.completed else f"  {r.message or r.error}"))
+    print("critical curve (b/a)*, a/R, L*:")
+    for b, c, L in critical_curve(df):
+        print(f"  ({b:.4f}, {c:.3f}, {L:.4f})")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quality", choices=figures.QUALITIES, default="quick")
-    ap.add_argument("--table", default="skfem_sheet_data/foldmap-quick.csv")
+    ap.add_argument("--method", choices=("curves", "grid"), default="curves")
+    ap.add_argument("--table", default=None,
+                    help="default skfem_sheet_data/foldcurves-QUALITY.csv (curves) or "
+                         "skfem_sheet_data/foldmap-QUALITY.csv (grid)")
     ap.add_argument("--workers", type=int, default=None)
     args = ap.parse_args(argv)
+    if args.table is None:
+        name = "foldcurves" if args.method == "curves" else "foldmap"
+        args.table = f"skfem_sheet_data/{name}-{args.quality}.csv"
+    if args.method == "curves":
+        return curves(args)
     points = figures.map_grid_points(args.quality)
     df = fold_map(points, table=args.table, workers=args.workers)
     p0 = points[0]

@@ -23,12 +23,24 @@ symmetry plane (``y = 0``), and keeps the mesh topology and dof numbering,
 so that a nodal state at one ``(L, b)`` is a valid state at the next.
 ``dR/dL`` and ``dR/db`` are central differences of residuals.
 
+The map distorts the mesh: beyond a stretch of :data:`REMESH_STRETCH` in x
+or a squeeze of :data:`REMESH_SQUEEZE` in y at the tip, the trace remeshes:
+the sheet is meshed afresh at the current ``(L, b)``, the state (and the
+null vector) are interpolated onto the new mesh
+(:func:`skfem_sheet.analyses.transfer.transfer`, memory linear in the mesh),
+the fold is located again there and the curve continues from it.  The
+standout fold at ``b = 1`` is found the same way, by natural continuation in
+L remeshed every :data:`REMESH_STRETCH`; a clamp curvature whose
+curvature-dominated branch reaches the end of the length range without a
+fold is *not bistable* there, and :attr:`FoldCurve.bistable` says so.
+
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
 interfaces move).
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -37,20 +49,31 @@ import numpy as np
 from skfem import MeshTet
 
 from .analyses.stability import stability
+from .analyses.transfer import transfer
 from .continuation import follow_path
 from .discretisation import TaylorHoodSpace
-from .engine import Problem, Tolerances, fold_curve, natural
+from .engine import FoldCurve as EngineFoldCurve
+from .engine import Problem, Tolerances, fold_curve, locate_fold, natural
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
 from .newton import Stats
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 
-__all__ = ["MIN_SQUEEZE", "TOLERANCES", "FoldCurve", "SheetFoldProblem", "trace_curvature_fold_curve",
+__all__ = ["MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH", "TOLERANCES", "FoldCurve",
+           "SheetFoldProblem", "default_start_length", "trace_curvature_fold_curve",
            "trace_fold_curve"]
 
 #: Smallest ratio of the tip width to the mesh's tip width (y squeeze at the tip).
 MIN_SQUEEZE = 0.15
+
+#: The trace remeshes where the mapped mesh is stretched in x by more than
+#: this factor (or compressed by its inverse) ...
+REMESH_STRETCH = 1.35
+#: ... or its tip width is below this fraction of the mesh's (or above its inverse).
+REMESH_SQUEEZE = 0.5
+#: Largest number of remeshes of one trace.
+MAX_REMESHES = 40
 
 #: The corrector's stopping rule for the sheet.  The sharp test is on the
 #: correction (displacements to 1e-6 of a; L and b to 1e-6): the residual of
@@ -249,6 +272,34 @@ class SheetFoldProblem(Problem):
         m = self._sheet.base.sheet_mesh
         return p[0] / m.length, p[1] / m.tip_width
 
+    @property
+    def mesh_parameters(self):
+        """``(L_m, b_m)`` of the mesh."""
+        m = self._sheet.base.sheet_mesh
+        return float(m.length), float(m.tip_width)
+
+    def remesh_box(self, j, length_range, bounds_j):
+        """The parameter box ``((L_lo, L_hi), (lo_j, hi_j))`` inside which this
+        mesh is used: ``length_range`` and ``bounds_j`` cut to the remeshing
+        limits (:data:`REMESH_STRETCH`, and for ``j = 1`` :data:`REMESH_SQUEEZE`)."""
+        L_m, b_m = self.mesh_parameters
+        L_box = (max(length_range[0], L_m / REMESH_STRETCH),
+                 min(length_range[1], L_m * REMESH_STRETCH))
+        j_box = tuple(bounds_j)
+        if j == 1:
+            j_box = (max(bounds_j[0], b_m * REMESH_SQUEEZE), min(bounds_j[1], b_m / REMESH_SQUEEZE))
+        return L_box, j_box
+
+    def transferred(self, other, u, p, state=True):
+        """``u`` (free dofs of this problem at ``p``) interpolated onto ``other``
+        at ``p``; ``state=False``: a vector with zero clamp values (a null vector)."""
+        if state:
+            w = self.full(u, p)
+        else:
+            w = np.zeros(self._sheet.ndof)
+            w[self._sheet.free] = u
+        return transfer(self.problem(p), w, other.problem(p))[other._sheet.free]
+
     # -- protocol ------------------------------------------------------------
     def admissible_parameters(self, p) -> bool:
         """Within the mesh's distortion limits (stretch in [1/2, 2], tip
@@ -355,6 +406,15 @@ class FoldCurve:
     second: str = "tip_width"
     #: The fixed tip width of a curve in (L, a/R).
     tip_width: float = 1.0
+    #: False: the curvature-dominated branch at the start went through the
+    #: whole length range without a fold (no bistable range; no points).
+    bistable: bool = True
+    #: Fresh meshes made on the way (state transferred each time).
+    remeshes: int = 0
+    #: How the cusp was found: "fold coefficient" (its sign change, located
+    #: by regula falsi), "turning point" (where the second parameter turns
+    #: back, if the sign change was not seen), or "" (no cusp).
+    cusp_located: str = ""
 
     def _at_start_value(self, kind):
         end = 1.0 if self.second == "tip_width" else self.curvature
@@ -373,6 +433,16 @@ class FoldCurve:
     def popup_length(self):
         """``L0*`` where the curve ends (None if the curve did not come back)."""
         return self._at_start_value("popup")
+
+    def record(self) -> dict:
+        """:meth:`summary` plus the status: ``completed``, ``bistable``,
+        ``reason``, ``remeshes``, ``hmax``, ``standout_length``, ``popup_length``."""
+        out = self.summary()
+        out.update(hmax=self.hmax, completed=bool(self.completed), bistable=bool(self.bistable),
+                   reason=self.reason, remeshes=int(self.remeshes),
+                   cusp_located=self.cusp_located,
+                   standout_length=self.standout_length, popup_length=self.popup_length)
+        return out
 
     def summary(self) -> dict:
         """JSON-ready: curvature, points, cusp, factorizations,
@@ -414,7 +484,22 @@ class _Progress:
             self.bar.close()
 
 
-def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float = 1.2,
+def default_start_length(curvature: float) -> float:
+    """L/a of the first solve of a trace: below the pop-up length ``L0*(b = 1)``
+    of the rectangle (hmax 0.1: 0.83, 0.97, 1.09, 1.21, 1.42, 1.72 at a/R = 1,
+    1.5, 2, 2.5, 3.5, 5), so that the curvature-first solve is on the
+    curvature-dominated branch; 1.2 at a/R = 2.5.
+
+    Examples
+    --------
+    >>> [round(default_start_length(k), 3) for k in (1, 2.5, 5)]
+    [0.6, 1.2, 1.6]
+    """
+    k = float(curvature)
+    return float(min(1.2, 0.2 + 0.4 * k) if k <= 2.5 else 1.2 + 0.16 * (k - 2.5))
+
+
+def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
                      length_range=(0.6, 2.4), min_tip_width: float = 0.2,
                      thickness: float = 0.03, modulus: float = 735.0, layers=None,
                      solver: str = "auto", ds: float = 0.05, ds_max: float = 0.4,
@@ -436,12 +521,15 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float
         a/R, in (0, 2 pi).
     hmax : float
         Mesh size (one mesh for the whole curve).
-    start_length : float
-        Length of the first solve, below ``L1*``.
+    start_length : float, optional
+        Length of the first solve, below ``L0*`` (default
+        :func:`default_start_length`).
     length_range : (float, float)
-        The curve stops if L leaves this range.
+        The curve stops if L leaves this range (and a curvature whose
+        curvature-dominated branch reaches its end without a fold is reported
+        as not bistable).
     min_tip_width : float
-        The curve stops below this tip width (mesh distortion).
+        The curve stops below this tip width.
     ds, ds_max : float
         First and largest arclength step.
     check_inertia : bool or int
@@ -452,7 +540,8 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float
     max_points : int
         Largest number of points of the curve.
     mesh_length : float, optional
-        Length of the mesh (default: ``1.08 start_length``, about mid-curve).
+        Length of the first mesh (default: ``1.08 start_length``); the trace
+        remeshes beyond :data:`REMESH_STRETCH` / :data:`REMESH_SQUEEZE`.
     progress : bool
         tqdm bar on stderr.
 
@@ -476,7 +565,7 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length: float
 
 def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
                                hmax: float = 0.1, *, min_curvature: float = 0.3,
-                               start_length: float = 1.2, length_range=(0.6, 2.4),
+                               start_length=None, length_range=(0.6, 2.4),
                                thickness: float = 0.03, modulus: float = 735.0, layers=None,
                                solver: str = "auto", ds: float = 0.05, ds_max: float = 0.4,
                                check_inertia=10, mesh_length=None, max_points: int = 400,
@@ -510,47 +599,198 @@ def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
 _SECOND = {1: ("b", "tip_width"), 2: ("a/R", "curvature")}
 
 
+class _Maker:
+    """Fresh fold problems of one trace (same sheet and discretisation, another mesh)."""
+
+    def __init__(self, curvature, hmax, thickness, modulus, layers, solver):
+        self.args = (curvature, hmax)
+        self.kw = dict(thickness=thickness, modulus=modulus, layers=layers, solver=solver)
+        self.count = 0
+
+    def __call__(self, mesh_length, mesh_tip_width):
+        self.count += 1
+        return SheetFoldProblem(*self.args, mesh_length=mesh_length,
+                                mesh_tip_width=min(1.0, mesh_tip_width), **self.kw)
+
+    def remesh(self, P, u, p, v=None):
+        """A problem on a fresh mesh at ``p``'s (L, b), with ``u`` (and ``v``) on it."""
+        Q = self(float(p[0]), float(p[1]))
+        return (Q, P.transferred(Q, u, p),
+                None if v is None else P.transferred(Q, v, p, state=False))
+
+
+def _standout_fold(make, P, u, p, hi, tol):
+    """Natural continuation in L from ``(u, p)`` to the first fold, remeshing
+    every :data:`REMESH_STRETCH`; where Newton fails short of the fold without
+    locating it, the fold is located from the last point, or (twice at most)
+    the continuation goes on from there on a fresh mesh.  Returns ``(P, fold or None, factorisations,
+    reason)``; ``reason`` is ``""`` when the branch reached ``hi`` without a fold."""
+    nfact, retries = 0, 0
+    for _ in range(MAX_REMESHES + 1):
+        stop = min(hi, P.mesh_parameters[0] * REMESH_STRETCH)
+        branch = natural(P, u, p, "L", stop, step=0.05, min_step=1e-3, tol=tol, jump=0.1,
+                         keep_states=False)
+        nfact += branch.stats.factorizations
+        if branch.fold is not None:
+            return P, branch.fold, nfact, f"fold: {branch.reason}"
+        if not branch.completed:
+            if not branch.points or retries >= 2:
+                return P, None, nfact, branch.reason or "natural continuation in L failed"
+            # Newton failed short of the fold without locating it: locate it
+            # from the last point directly, else go on from there on a fresh mesh
+            last = branch.points[-1]
+            fold, res = locate_fold(P, last.u, last.p, "L", tol=tol)
+            nfact += res.iterations
+            if (fold is not None and fold.side < 0
+                    and -1e-3 <= fold.value - last.p[0] <= 0.1):
+                return P, fold, nfact, f"fold located from the last point ({branch.reason})"
+            retries += 1
+            P, u, _ = make.remesh(P, last.u, last.p)
+            p = last.p
+            continue
+        last = branch.points[-1]
+        if stop >= hi - 1e-12:
+            return P, None, nfact, ""
+        P, u, _ = make.remesh(P, last.u, last.p)
+        p = last.p
+    return P, None, nfact, f"more than {MAX_REMESHES} remeshes"
+
+
+def _turning_point(points, key):
+    """The cusp of a completed curve whose fold coefficient's sign change was
+    not seen: where ``key`` turns back (its minimum over the points, refined
+    by a parabola through the three points around it in the arclength)."""
+    q = np.array([pt[key] for pt in points])
+    L = np.array([pt["length"] for pt in points])
+    k = int(np.argmin(q))
+    if k == 0 or k == len(q) - 1:
+        return None
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(q), np.diff(L)))])
+    idx = slice(k - 1, k + 2)
+    cq, cL = np.polyfit(s[idx], q[idx], 2), np.polyfit(s[idx], L[idx], 2)
+    s_min = -cq[1] / (2 * cq[0]) if cq[0] > 0 else s[k]
+    s_min = float(np.clip(s_min, s[k - 1], s[k + 1]))
+    return {key: float(np.polyval(cq, s_min)), "length": float(np.polyval(cL, s_min))}
+
+
+def _as_fold_in_L(P, fold, tol):
+    """A fold located in the second parameter, located again in L from there
+    (fold_curve starts from a fold in L); None if that fails."""
+    again, _ = locate_fold(P, fold.u, fold.p, "L", v0=fold.v, tol=tol)
+    return again
+
+
+def _strip(pt):
+    return dataclasses.replace(pt, u=None)
+
+
 def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_range, thickness,
            modulus, layers, solver, ds, ds_max, check_inertia, mesh_length, max_points,
            progress):
     """Standout fold at ``(tip_width, curvature)``, then its fold curve in
-    ``(L, p_j)`` from the start value of ``p_j`` downward and back."""
+    ``(L, p_j)`` from the start value of ``p_j`` downward and back, remeshing
+    on the way."""
     hmax = check_range("hmax", hmax, 0.02, 0.5)
     lo, hi = (check_range("length_range", float(x), 0.05, 20.0) for x in length_range)
+    if start_length is None:
+        start_length = min(max(default_start_length(curvature), lo + 0.02 * (hi - lo)),
+                           0.5 * (lo + hi))
     if not lo < start_length < hi:
         raise ParameterError(f"start_length must be inside length_range {length_range!r}, "
                              f"got {start_length!r}")
     t0 = time.perf_counter()
-    P = SheetFoldProblem(curvature, hmax, mesh_length or 1.08 * start_length, tip_width,
-                         thickness, modulus, layers, solver)
+    make = _Maker(curvature, hmax, thickness, modulus, layers, solver)
+    P = make(mesh_length or 1.08 * start_length, tip_width)
     tol = TOLERANCES
     p0 = np.array([start_length, tip_width, curvature])
     u0, f_start = P.solve_state(p0, "curvature-first")
-    branch = natural(P, u0, p0, "L", hi, step=0.05, min_step=1e-3, tol=tol, jump=0.1,
-                     keep_states=False)
-    if branch.fold is None:
-        raise ParameterError(f"no standout fold found in L from {start_length} to {hi} at "
-                             f"b/a = {tip_width}, a/R = {curvature}: {branch.reason}")
+    P, fold, f_branch, why = _standout_fold(make, P, u0, p0, hi, tol)
     name, key = _SECOND[j]
+    where = f"b/a = {tip_width:g}, a/R = {curvature:g}"
+    if fold is None:
+        total = f_start + f_branch
+        if not why:
+            return FoldCurve(curvature, (), None, int(total), float("nan"),
+                             time.perf_counter() - t0, hmax, False,
+                             f"not bistable at {where}: the curvature-dominated branch reached "
+                             f"L/a = {hi:g} from {start_length:g} without a fold",
+                             second=key, tip_width=tip_width, bistable=False,
+                             remeshes=make.count - 1)
+        raise ParameterError(f"no standout fold found in L from {start_length:g} to {hi:g} at "
+                             f"{where}: {why}")
     bar = _Progress(progress, j, name)
+    hi_j = bounds_j[1]
+    points, cusps, per_point, stats = [], [], [], None
+    engine_refact = 0
+    direction, completed, reason = -1, False, ""
     try:
-        curve = fold_curve(P, branch.fold, ("L", name), ((lo, hi), bounds_j),
-                           ds=ds, ds_min=1e-4, ds_max=ds_max, direction=-1, tol=tol,
-                           cusp_tol=1e-4, check_inertia=check_inertia, easy_iterations=3,
-                           max_points=max_points, progress=bar)
+        while True:
+            box = P.remesh_box(j, (lo, hi), bounds_j)
+            seg = fold_curve(P, fold, ("L", name), box, ds=ds, ds_min=1e-4, ds_max=ds_max,
+                             direction=direction, tol=tol, cusp_tol=1e-4,
+                             check_inertia=check_inertia, easy_iterations=3,
+                             max_points=max(2, max_points - len(points)), keep_states=True,
+                             progress=bar)
+            stats = seg.stats if stats is None else stats + seg.stats
+            engine_refact += P.refactorizations
+            cusps += list(seg.cusps)
+            pts = list(seg.points)
+            per_point += [pt.factorizations for pt in pts[1:]]
+            if not seg.completed or not pts:
+                points += [_strip(pt) for pt in pts]
+                reason = seg.reason or "the fold curve stopped"
+                break
+            last = pts[-1]
+            Lc, qc = float(last.p[0]), float(last.p[j])
+            real_end = (qc >= hi_j - 1e-9 or qc <= bounds_j[0] + 1e-9
+                        or Lc <= lo + 1e-9 or Lc >= hi - 1e-9)
+            if real_end:
+                points += [_strip(pt) for pt in pts]
+                completed = qc >= hi_j - 1e-9
+                if not completed:
+                    reason = (f"the curve left the box at L/a = {Lc:.4f}, {name} = {qc:.4f} "
+                              f"before returning to {name} = {hi_j:g}")
+                break
+            if make.count > MAX_REMESHES:
+                points += [_strip(pt) for pt in pts]
+                reason = f"more than {MAX_REMESHES} remeshes"
+                break
+            points += [_strip(pt) for pt in pts[:-1]]
+            prev = pts[-2].p if len(pts) > 1 else (points[-1].p if points else p0)
+            step_j = float(last.p[j] - prev[j])
+            direction = direction if step_j == 0 else (1 if step_j > 0 else -1)
+            if len(points) >= max_points:
+                reason = "max_points"
+                break
+            # a fresh mesh at the fold, the state and the null vector moved onto it
+            P, u, _ = make.remesh(P, last.u, last.p)
+            fold, res = locate_fold(P, u, last.p, "L", tol=tol)
+            if fold is None:  # near the cusp the fold in L degenerates: in p_j at fixed L
+                fold, res = locate_fold(P, u, last.p, name, tol=tol)
+                if fold is not None:
+                    fold = _as_fold_in_L(P, fold, tol)
+            if fold is None:
+                reason = (f"the fold was not found again after remeshing at L/a = {Lc:.4f}, "
+                          f"{name} = {qc:.4f}: {res.reason}")
+                break
+            stats = stats + fold.stats
     finally:
         bar.close()
-    points = tuple({key: float(pt.p[j]), "length": float(pt.p[0]), "kind": _kind(pt.side)}
-                   for pt in curve.points)
+    out_points = tuple({key: float(pt.p[j]), "length": float(pt.p[0]), "kind": _kind(pt.side)}
+                       for pt in points)
     cusp = None
-    if curve.cusps:
-        c = curve.cusps[0]
+    if cusps:
+        c = cusps[0]
         cusp = {key: float(c.p[j]), "length": float(c.p[0])}
-    total = (f_start + branch.stats.factorizations + curve.stats.factorizations
-             + P.refactorizations)
-    per_point = curve.factorizations_per_point
-    return FoldCurve(curvature, points, cusp, int(total),
-                     float(np.median(per_point[1:])) if len(per_point) > 1 else float("nan"),
-                     time.perf_counter() - t0, hmax, curve.completed, curve.reason,
-                     tuple(pt.negative_eigenvalues for pt in curve.points),
-                     tuple(pt.crossing for pt in curve.points), curve, key, tip_width)
+    elif completed:
+        cusp = _turning_point(out_points, key)
+    located = ("fold coefficient" if cusps else "turning point" if cusp is not None else "")
+    total = f_start + f_branch + stats.factorizations + engine_refact
+    curve = EngineFoldCurve(tuple(points), (0, j), tuple(cusps), completed, reason, stats)
+    return FoldCurve(curvature, out_points, cusp, int(total),
+                     float(np.median(per_point)) if per_point else float("nan"),
+                     time.perf_counter() - t0, hmax, completed, reason,
+                     tuple(pt.negative_eigenvalues for pt in points),
+                     tuple(pt.crossing for pt in points), curve, key, tip_width,
+                     remeshes=make.count - 1, cusp_located=located)
+

@@ -22,6 +22,7 @@ pd = pytest.importorskip("pandas")
 from skfem_sheet import figures  # noqa: E402
 from skfem_sheet.cli import main  # noqa: E402
 from skfem_sheet.figures import cache, figure3  # noqa: E402
+from skfem_sheet.figures import data as figure_data  # noqa: E402
 from skfem_sheet.figures.figure7 import region_mesh  # noqa: E402
 from skfem_sheet.params import ParameterError  # noqa: E402
 from skfem_sheet.studies import foldmap  # noqa: E402
@@ -113,6 +114,9 @@ def compute(monkeypatch):
         return synthetic_row(point)
 
     monkeypatch.setattr(foldmap, "_run_map_point", fake)
+    # these tests count grid points: fig6/fig7 drawn by the grid method (their
+    # default traces fold curves, which a synthetic row cannot stand in for)
+    monkeypatch.setattr(figure_data, "FIGURE_METHOD", "grid")
     return calls
 
 

@@ -227,3 +227,68 @@ def test_two_routes_around_the_cusp_reach_the_same_popup_fold():
     n = kinds.count("standout")
     assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
     assert by_curvature.factorizations_per_point <= 5
+
+
+# -- remeshing, not bistable, the start length (issue 19, item 3) -----------------------------
+def test_remesh_box_is_the_distortion_limits_cut_to_the_ranges(coarse):
+    from skfem_sheet.foldcurve import REMESH_SQUEEZE, REMESH_STRETCH
+
+    (L_lo, L_hi), (b_lo, b_hi) = coarse.remesh_box(1, (0.6, 2.4), (0.2, 1.0))
+    assert L_lo == pytest.approx(1.3 / REMESH_STRETCH) and L_hi == pytest.approx(1.3 * REMESH_STRETCH)
+    assert b_lo == pytest.approx(REMESH_SQUEEZE) and b_hi == 1.0
+    # the curvature is no mesh parameter: its bounds are kept
+    assert coarse.remesh_box(2, (1.0, 1.5), (0.3, 2.5)) == ((1.0, 1.5), (0.3, 2.5))
+    assert coarse.mesh_parameters == (1.3, 1.0)
+
+
+def test_transfer_onto_the_same_mesh_is_the_identity_and_onto_another_is_close(coarse):
+    """A state moved onto a fresh mesh made at the same (L, b) comes back
+    unchanged; moved onto a mesh made elsewhere and mapped to the same
+    (L, b), its tip deflection is kept to the interpolation error."""
+    from skfem_sheet.analyses.observables import tip_deflection
+
+    p = np.array([1.25, 0.8, 2.5])
+    u, _ = coarse.solve_state(p, "curvature-first")
+    same = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
+    np.testing.assert_allclose(coarse.transferred(same, u, p), u, atol=1e-9 * np.abs(u).max())
+    other = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.25, mesh_tip_width=0.8)
+    v = coarse.transferred(other, u, p)
+    d0 = tip_deflection(coarse.problem(p), coarse.full(u, p))
+    d1 = tip_deflection(other.problem(p), other.full(v, p))
+    assert d1 == pytest.approx(d0, abs=0.01 * max(abs(d0), 0.01) + 1e-3)
+
+
+def test_default_start_length_is_below_the_popup_fold():
+    """Below the point-by-point L0*(b = 1) at hmax 0.1 (a/R 1: 0.825, 1.5:
+    0.966, 2: 1.087, 2.5: 1.205, 3.5: 1.421, 5: 1.716), within 0.3 of it."""
+    from skfem_sheet.foldcurve import default_start_length
+
+    for k, L0 in ((1.0, 0.825), (1.5, 0.966), (2.0, 1.087), (2.5, 1.205), (3.5, 1.421),
+                  (5.0, 1.716)):
+        assert L0 - 0.3 < default_start_length(k) < L0
+
+
+@pytest.mark.slow
+def test_remeshed_curve_agrees_with_the_curve_on_one_mesh():
+    """Started on a mesh 0.95 long, the trace remeshes (in L to the fold, and
+    along the curve) and gives the folds and the cusp of the trace on one
+    mesh (1.368, 1.225, 0.631 at hmax 0.2) to the mesh difference."""
+    one = trace_fold_curve(2.5, hmax=COARSE, check_inertia=0)
+    re = trace_fold_curve(2.5, hmax=COARSE, mesh_length=0.95, check_inertia=0)
+    assert one.completed and re.completed and re.remeshes >= 1
+    assert re.standout_length == pytest.approx(one.standout_length, abs=0.005)
+    assert re.popup_length == pytest.approx(one.popup_length, abs=0.005)
+    assert re.cusp["tip_width"] == pytest.approx(one.cusp["tip_width"], abs=0.005)
+    assert re.factorizations_per_point <= 5
+    rec = re.record()
+    assert rec["remeshes"] == re.remeshes and rec["completed"] and rec["bistable"]
+
+
+@pytest.mark.slow
+def test_a_weakly_curved_rectangle_is_reported_not_bistable():
+    """a/R = 0.5 (below the rectangle's critical curvature, about 1): the
+    curvature-dominated branch goes through the whole length range without
+    a fold; the trace says so instead of failing."""
+    c = trace_fold_curve(0.5, hmax=COARSE, length_range=(0.6, 1.6), check_inertia=0)
+    assert not c.bistable and not c.completed and c.points == () and c.cusp is None
+    assert "not bistable" in c.reason

@@ -181,3 +181,133 @@ def test_snapped_starts_are_structured_columns(up, down, monkeypatch, tmp_path):
     assert again.attrs["fold_map"]["new"] == 0
     assert again.curvature_dominated_snapped[0] == up
     assert again.gravity_dominated_snapped[0] == down
+
+
+# -- the map from fold curves (issue 19, item 4) ----------------------------------------------
+def _curve_row(c, b_star, L_star, points, second="tip_width"):
+    return {"curvature": c, "second": second, "tip_width": 1.0, "hmax": 0.1, "bistable": True,
+            "cusp_tip_width": b_star if second == "tip_width" else 1.0,
+            "cusp_curvature": c if second == "tip_width" else b_star,
+            "cusp_length": L_star, "error": "", "points": json.dumps(points)}
+
+
+def test_curve_points_keys_and_bad_input():
+    pts = fm.curve_points([1.0, 2.5], hmax=0.1, rectangle_from=2.5)
+    assert [(p["second"], p["curvature"]) for p in pts] == [
+        ("tip_width", 1.0), ("tip_width", 2.5), ("curvature", 2.5)]
+    keys = {fm._curve_key(p) for p in pts}
+    assert len(keys) == 3
+    assert fm._curve_key(dict(pts[0], hmax=0.06)) not in keys
+    with pytest.raises(ParameterError, match="second"):
+        fm.fold_curves([dict(pts[0], second="length")], workers=1, progress=False)
+    with pytest.raises(ParameterError, match="workers"):
+        fm.fold_curves(pts, workers=0, progress=False)
+
+
+def test_curve_halves_split_at_the_turning_point():
+    pts = [[1.0, 1.35, "standout"], [0.8, 1.3, "standout"], [0.65, 1.26, "standout"],
+           [0.7, 1.24, "popup"], [1.0, 1.2, "popup"]]
+    h = fm.curve_halves(_curve_row(2.5, 0.64, 1.25, pts))
+    (bs, Ls), (bp, Lp) = h["standout"], h["popup"]
+    assert bs.tolist() == [0.64, 0.65, 0.8, 1.0] and Ls.tolist() == [1.25, 1.26, 1.3, 1.35]
+    assert bp.tolist() == [0.64, 0.7, 1.0] and Lp.tolist() == [1.25, 1.24, 1.2]
+    assert h["cusp"] == (0.64, 1.25)
+    # a curve that never turned: one half, no cusp
+    h = fm.curve_halves(dict(_curve_row(2.5, math.nan, math.nan, pts[:3])))
+    assert h["cusp"] is None and h["popup"][0].size == 0
+
+
+def test_critical_curve_from_the_cusps_and_the_rectangle():
+    rows = [_curve_row(2.5, 0.63, 1.25, []), _curve_row(5.0, 0.60, 1.69, []),
+            _curve_row(2.5, 1.15, 0.9, [], second="curvature"),
+            dict(_curve_row(0.75, math.nan, math.nan, []), bistable=False)]
+    assert fm.critical_curve(pd.DataFrame(rows)) == [(1.0, 1.15, 0.9), (0.63, 2.5, 1.25),
+                                                     (0.6, 5.0, 1.69)]
+
+
+def test_fold_curves_resume_through_the_journal(tmp_path, monkeypatch):
+    """Each curve is traced once: a second call reads the journal; a failed
+    trace is a failed row, not an exception."""
+    calls = []
+
+    class Fake:
+        def __init__(self, c):
+            self.c = c
+
+    def fake_trace(c, **kw):
+        calls.append(c)
+        if c == 1.0:
+            raise RuntimeError("boom")
+        return SimpleNamespace(
+            second="tip_width", cusp={"tip_width": 0.6, "length": 1.3}, standout_length=1.4,
+            popup_length=1.2, cusp_located="fold coefficient", bistable=True, completed=True,
+            points=({"tip_width": 1.0, "length": 1.4, "kind": "standout"},
+                    {"tip_width": 0.6, "length": 1.3, "kind": "standout"},
+                    {"tip_width": 1.0, "length": 1.2, "kind": "popup"}),
+            factorizations=12, factorizations_per_point=4.0, remeshes=0, reason="",
+            wall_time_s=0.1)
+
+    monkeypatch.setattr(fm, "trace_fold_curve", fake_trace)
+    table = tmp_path / "curves.csv"
+    pts = fm.curve_points([1.0, 2.5])
+    df = fm.fold_curves(pts, table=table, workers=1, progress=False)
+    assert sorted(calls) == [1.0, 2.5]
+    ok = df[df.curvature == 2.5].iloc[0]
+    assert ok.converged and ok.cusp_tip_width == 0.6 and ok.cusp_curvature == 2.5
+    assert ok.n_points == 3 and fm.curve_halves(ok)["cusp"] == (0.6, 1.3)
+    bad = df[df.curvature == 1.0].iloc[0]
+    assert not bad.converged and bad.error == "RuntimeError" and "boom" in bad.message
+    again = fm.fold_curves(pts, table=table, workers=1, progress=False)
+    assert sorted(calls) == [1.0, 2.5] and again.attrs["fold_curves"]["new"] == 0
+    assert len(pd.read_csv(table)) == 2
+
+
+def test_cli_fold_map_curves_bad_input_is_one_line():
+    out = subprocess.run([sys.executable, "-m", "skfem_sheet", "fold-map", "--method", "grid",
+                          "--rectangle", "2.5"], capture_output=True, text=True)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and "--rectangle" in out.stderr
+
+
+def _synthetic_curve(c):
+    """A fold curve of the shape traced: L1*(b) down to the cusp, L0*(b) back up."""
+    b_star, L_star = 0.6, 1.0 + 0.1 * c
+    bs = np.linspace(1.0, b_star + 0.01, 8)
+    up = [[b, L_star + 0.05 * c * (b - b_star) ** 0.5, "standout"] for b in bs]
+    down = [[b, L_star - 0.02 * c * (b - b_star) ** 0.5, "popup"] for b in bs[::-1]]
+    return dict(_curve_row(c, b_star, L_star, up + down), converged=True, completed=True)
+
+
+def test_figures_draw_the_bistable_region_from_fold_curves(tmp_path):
+    """fig7: one chain per a/R from the cusp up, the critical curve through
+    the cusps and the rectangle's critical a/R; fig6: the traced curve as the
+    boundary with its cusp, markers above the cusp from the curve."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from skfem_sheet.figures.data import curve_region
+    from skfem_sheet.figures.figure6 import draw_fig6
+    from skfem_sheet.figures.figure7 import draw_fig7
+
+    rows = [_synthetic_curve(c) for c in (2.5, 5.0)]
+    rows.append(dict(_curve_row(2.5, 1.2, 0.95, [], second="curvature"), converged=True))
+    df = pd.DataFrame(rows)
+    reg = curve_region(df)
+    assert sorted(reg["chains"]) == [1.2, 2.5, 5.0] and reg["edge"] == (1.0, 1.2, 0.95)
+    chain = reg["chains"][2.5]
+    assert chain[0] == (0.6, 1.25, 1.25)  # the cusp first
+    assert all(l0 < l1 for _, l0, l1 in chain[1:])
+    assert [c[1] for c in reg["critical"]] == [1.2, 2.5, 5.0]
+    fig = draw_fig7(df, "quick", region=reg)
+    fig.savefig(tmp_path / "f7.png")
+    rom = pd.DataFrame([dict(curvature=k, tip_width=b, length=L, direction=dr, deflection=L - 1,
+                             converged=True, stable=True, jumped=False)
+                        for k in (2.5, 5.0) for b in (0.0, 1.0) for L in (1.0, 2.0)
+                        for dr in ("increasing", "decreasing")])
+    fe = pd.DataFrame(columns=list(fm.MAP_COLUMNS))
+    fig = draw_fig6(fe, rom, "quick", mode_lengths=np.arange(0.6, 2.81, 0.2), curves=df)
+    fig.savefig(tmp_path / "f6.png")
+    ax = fig.axes[0]
+    (cusp,) = [ln for ln in ax.get_lines() if ln.get_gid() == "fe-cusp|k=2.5"]
+    assert cusp.get_xdata()[0] == pytest.approx(1.25) and cusp.get_ydata()[0] == 0.6
+    (dia,) = [ln for ln in ax.get_lines() if ln.get_gid() == "fe-curvature|k=2.5"]
+    assert min(dia.get_ydata()) > 0.6  # markers only above the cusp (no map rows below)

@@ -33,8 +33,9 @@ def register(subparsers) -> None:
     p.add_argument("--hmax", type=float, default=0.1, help="mesh size (default 0.1)")
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--solver", default="auto", help=solver_help())
-    p.add_argument("--start-length", type=float, default=1.2,
-                   help="L/a of the first solve, below the standout length (default 1.2)")
+    p.add_argument("--start-length", type=float, default=None,
+                   help="L/a of the first solve, below the pop-up length (default: from a/R, "
+                        "1.2 at a/R = 2.5)")
     p.add_argument("--lengths", default="0.6:2.4",
                    help="the curve stops outside this range of L/a, short:long (default 0.6:2.4)")
     p.add_argument("--json", default=None, help="write the curve here")
@@ -71,7 +72,13 @@ def run(args) -> int:
         return "not on the curve" if x is None else f"{x:.4f}"
 
     print(f"standout L1* {fmt(curve.standout_length)}, pop-up L0* {fmt(curve.popup_length)}")
-    print(f"cusp: {cusp_text}")
+    print(f"cusp: {cusp_text}" + (f" (located by the {curve.cusp_located})"
+                                  if curve.cusp_located else ""))
+    if curve.remeshes:
+        print(f"remeshed {curve.remeshes} times on the way")
+    if not curve.bistable:
+        print(curve.reason)
+        return 0
     if not curve.completed:
         print(f"curve stopped: {curve.reason}")
         return 1

@@ -1,12 +1,25 @@
-"""``skfem-sheet fold-map``: pop-up and standout lengths over a grid of (b/a, a/R).
+"""``skfem-sheet fold-map``: pop-up and standout lengths over (b/a, a/R).
 
-See :mod:`skfem_sheet.studies.foldmap` for the table.
+``--method curves`` (default): one traced fold curve per a/R (L1*, the cusp
+(b/a)*, L0*; and with ``--rectangle`` the curve in (L, a/R) at b/a = 1,
+whose cusp is the curvature where the rectangle becomes bistable).
+``--method grid``: the point-by-point search over a grid (the reference).
+See :mod:`skfem_sheet.studies.foldmap` for the tables.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..studies.foldmap import critical_tip_width, fold_map, map_points
+from ..params import ParameterError
+from ..studies.foldmap import (
+    critical_curve,
+    critical_tip_width,
+    curve_halves,
+    curve_points,
+    fold_curves,
+    fold_map,
+    map_points,
+)
 from .ranges import parse_range, parse_values
 from .solve import solver_help
 
@@ -16,10 +29,17 @@ __all__ = ["register", "run"]
 def register(subparsers) -> None:
     """Add the ``fold-map`` command."""
     p = subparsers.add_parser(
-        "fold-map", help="pop-up and standout lengths over a grid of (b/a, a/R)",
-        description="Fold lengths L0* (pop-up) and L1* (standout) for every (tip width, "
-                    "curvature) of a grid, in parallel, into a resumable table; prints the "
-                    "critical shape factor (b/a)* of each curvature.")
+        "fold-map",
+        help="pop-up and standout lengths over (b/a, a/R), from fold curves or a grid",
+        description="Fold lengths L0* (pop-up) and L1* (standout) and the critical shape "
+                    "factor (b/a)* of each curvature, in parallel, into a resumable table: "
+                    "from one traced fold curve per curvature (--method curves, default) or "
+                    "for every (tip width, curvature) of a grid (--method grid).")
+    p.add_argument("--method", choices=("curves", "grid"), default="curves",
+                   help="curves: one fold curve per a/R (default); grid: point by point")
+    p.add_argument("--rectangle", type=float, default=None, metavar="A_R",
+                   help="curves: also trace the curve in (L, a/R) at b/a = 1 from this a/R "
+                        "(its cusp: where the rectangle becomes bistable)")
     p.add_argument("--tip-widths", default="0.5:1:0.1",
                    help="b/a values: a list '0.6,0.8,1' or a range 'start:stop:step'")
     p.add_argument("--curvatures", default="2.5", help="a/R values (list or range)")
@@ -37,9 +57,51 @@ def register(subparsers) -> None:
     p.set_defaults(run=run)
 
 
+def _run_curves(args, tip_widths) -> int:
+    curvatures = parse_values(args.curvatures, "curvatures")
+    points = curve_points(curvatures, hmax=args.hmax, layers=args.layers, solver=args.solver,
+                          rectangle_from=args.rectangle)
+    df = fold_curves(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
+                     progress=not args.quiet, retry_failed=args.retry_failed)
+
+    def fmt(x):
+        return "   none" if not np.isfinite(x) else f"{x:7.4f}"
+
+    print(f"hmax = {args.hmax:g}, fold curves")
+    print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
+          "  wall s")
+    for _, r in df.iterrows():
+        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
+        print(f"{r.curvature:5.2f}  {which}  {fmt(r.standout_length)}  {fmt(r.popup_length)}"
+              f"  {fmt(r.cusp_tip_width)}   {fmt(r.cusp_curvature)}  {fmt(r.cusp_length)}"
+              f"  {int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
+              + ("" if r.completed else f"  {r.message}"))
+    print("  a/R    b/a   L0* pop-up  L1* standout  (interpolated on the fold curves)")
+    for _, r in df[df["second"] == "tip_width"].iterrows():
+        halves = curve_halves(r)
+        if halves is None or halves["cusp"] is None:
+            continue
+        (bs, Ls), (bp, Lp) = halves["standout"], halves["popup"]
+        for b in tip_widths:
+            if halves["cusp"][0] < b <= min(bs.max(), bp.max()) + 1e-12:
+                print(f"{r.curvature:5.2f}  {b:5.2f}      {fmt(np.interp(b, bp, Lp))}       "
+                      f"{fmt(np.interp(b, bs, Ls))}")
+    crit = critical_curve(df)
+    if crit:
+        print("critical curve (b/a)*, a/R, L*: "
+              + "; ".join(f"({b:.3f}, {c:.3f}, {L:.3f})" for b, c, L in crit))
+    if args.table:
+        print(f"table: {df.attrs['fold_curves']['table']}")
+    return 0 if df["converged"].all() else 1
+
+
 def run(args) -> int:
     """Compute the map, print the fold lengths and (b/a)*; 0 if every point converged."""
     tip_widths = parse_values(args.tip_widths, "tip-widths")
+    if args.method == "curves":
+        return _run_curves(args, tip_widths)
+    if args.rectangle is not None:
+        raise ParameterError("--rectangle is for --method curves")
     curvatures = parse_values(args.curvatures, "curvatures")
     lengths = parse_range(args.lengths, "lengths", pair="short:long", example="0.6:2.4")
     points = map_points(tip_widths, curvatures, lengths=lengths, hmax=args.hmax,

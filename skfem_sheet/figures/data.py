@@ -19,12 +19,25 @@ import os
 import numpy as np
 import pandas as pd
 
+from ..params import ParameterError
 from ..studies import foldmap
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
 
 __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "branch_snapped",
-           "usable", "select_rows", "as_bool", "fold_lines"]
+           "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
+           "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
+           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method"]
+
+#: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
+#: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
+FIGURE_METHOD = "curves"
+
+#: The clamp curvatures of the fold curves of a quality (every 0.25 from 1 to 5).
+CURVE_CURVATURES = {q: tuple(float(x) for x in np.round(np.arange(1.0, 5.0001, 0.25), 6))
+                    for q in ("quick", "paper")}
+#: The curve in (L, a/R) at b/a = 1 starts here and turns at the rectangle's critical a/R.
+RECTANGLE_CURVE_FROM = 2.5
 
 _MODES = ("curvature_dominated", "gravity_dominated")
 
@@ -74,6 +87,45 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     """
     table = os.path.join(data_folder(data_dir), f"foldmap-{quality}.csv")
     return foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+
+
+def figure_method(method=None) -> str:
+    """``method``, or :data:`FIGURE_METHOD` if None; checked.
+
+    Examples
+    --------
+    >>> figure_method(), figure_method("grid")
+    ('curves', 'grid')
+    """
+    method = FIGURE_METHOD if method is None else method
+    if method not in ("curves", "grid"):
+        raise ParameterError(f"method must be 'curves' or 'grid', got {method!r}")
+    return method
+
+
+def fold_curve_points(quality: str = "quick", curvatures=None, rectangle: bool = True) -> list:
+    """The fold curves of a quality: one in (L, b/a) per a/R of
+    :data:`CURVE_CURVATURES` (or ``curvatures``), and the rectangle's curve
+    in (L, a/R) (unless ``rectangle`` is False), all at the quality's mesh.
+
+    Examples
+    --------
+    >>> pts = fold_curve_points("quick")
+    >>> len(pts), pts[0]["hmax"], pts[-1]["second"]
+    (18, 0.1, 'curvature')
+    """
+    s = quality_settings(quality)
+    cs = CURVE_CURVATURES[quality] if curvatures is None else curvatures
+    return foldmap.curve_points(cs, hmax=s["hmax"],
+                                rectangle_from=RECTANGLE_CURVE_FROM if rectangle else None)
+
+
+def fold_curve_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True,
+                     workers=None):
+    """Rows of the quality's fold-curve table ``data_dir/foldcurves-<quality>.csv``
+    for ``points`` (tracing the curves not yet journalled), one per curve."""
+    table = os.path.join(data_folder(data_dir), f"foldcurves-{quality}.csv")
+    return foldmap.fold_curves(points, table=table, workers=workers, progress=progress)
 
 
 # -- reading rows --------------------------------------------------------------------------
@@ -255,3 +307,80 @@ def fold_lines(rows, critical):
             Lstar = 0.5 * (L0[0] + L1[0])
         tip = (float(est), float(Lstar))
     return {"b": b, "L0": L0, "L1": L1, "tip": tip}
+
+
+# -- the bistable region from fold curves ------------------------------------------------------
+def curve_fold_lines(row, tip_widths=None):
+    """The bistable region of one fold curve in (L, b/a), as :func:`fold_lines` gives it.
+
+    Returns None (no bistable curve, or a failed one) or a dict: ``b``,
+    ``L0``, ``L1`` at ``tip_widths`` (default: the b/a of the curve's points)
+    above the cusp, ascending, and ``tip`` = the cusp ``(b*, L*)`` (None if
+    the curve did not turn back); ``curve`` = the traced polyline ``(L, b)``
+    from L1*(1) through the cusp to L0*(1); ``halves`` = the standout and
+    pop-up folds ``(b, L)`` (:func:`skfem_sheet.studies.foldmap.curve_halves`).
+    """
+    if _text(row, "error") or not bool(row["bistable"]):
+        return None
+    halves = foldmap.curve_halves(row)
+    if halves is None or halves["cusp"] is None:
+        return None
+    (bs, Ls), (bp, Lp) = halves["standout"], halves["popup"]
+    b_star, L_star = halves["cusp"]
+    if tip_widths is None:
+        b = np.unique(np.concatenate([bs[1:], bp[1:]]))
+    else:
+        b = np.asarray(tip_widths, float)
+        b = b[(b > b_star) & (b <= min(bs.max(), bp.max()) + 1e-12)]
+    L1 = np.interp(b, bs, Ls)
+    L0 = np.interp(b, bp, Lp)
+    curve = (np.concatenate([Ls[::-1], Lp[1:]]), np.concatenate([bs[::-1], bp[1:]]))
+    return {"b": b, "L0": L0, "L1": L1, "tip": (float(b_star), float(L_star)), "curve": curve,
+            "halves": ((bs, Ls), (bp, Lp))}
+
+
+def curve_region(df, tip_widths=None) -> dict:
+    """The bistable region of a fold-curve table, in the form of
+    ``figure7.bistable_region``: ``chains`` per a/R of nodes ``(b, L0*, L1*)``
+    from the cusp ``(b*, L*, L*)`` up (at ``tip_widths``, default every 0.05),
+    ``critical`` (:func:`skfem_sheet.studies.foldmap.critical_curve`: the
+    cusps, and the rectangle's critical a/R), ``edge`` (that last one if it is
+    not a traced a/R)."""
+    tips = np.round(np.arange(0.05, 1.0001, 0.05), 6) if tip_widths is None else tip_widths
+    chains, edge = {}, None
+    rows = df[df["second"] == "tip_width"] if len(df) else df
+    for _, row in rows.iterrows():
+        lines = curve_fold_lines(row, tips)
+        if lines is None:
+            continue
+        bs, Ls = lines["tip"]
+        nodes = [(bs, Ls, Ls)] + [(float(b), float(l0), float(l1))
+                                  for b, l0, l1 in zip(lines["b"], lines["L0"], lines["L1"])]
+        chains[float(row["curvature"])] = nodes
+    critical = foldmap.critical_curve(df) if len(df) else []
+    for b, c, L in critical:
+        if b == 1.0 and all(abs(c - k) > 1e-9 for k in chains):
+            chains[float(c)] = [(1.0, L, L)]
+            edge = (1.0, float(c), float(L))
+    return {"chains": dict(sorted(chains.items())), "critical": critical, "edge": edge}
+
+
+def curve_modes(lines, tip_widths, lengths):
+    """Mode markers from a fold curve: at each ``b`` of ``tip_widths`` above
+    the cusp, the curvature-dominated mode exists for ``L <= L1*(b)`` and the
+    gravity-dominated one for ``L >= L0*(b)``.  Returns ``(cd, gd)``, lists of
+    ``(L, b)``; the tip widths at or below the cusp are left out (they need
+    a map point each: there the transition is continuous)."""
+    cd, gd = [], []
+    if lines is None:
+        return cd, gd
+    (bs, Ls), (bp, Lp) = lines["halves"]
+    b_star = lines["tip"][0]
+    L = np.asarray(lengths, float)
+    for b in tip_widths:
+        if b <= b_star or b > min(bs.max(), bp.max()) + 1e-12:
+            continue
+        l1, l0 = np.interp(b, bs, Ls), np.interp(b, bp, Lp)
+        cd += [(x, float(b)) for x in L[L <= l1]]
+        gd += [(x, float(b)) for x in L[L >= l0]]
+    return cd, gd

@@ -3,7 +3,12 @@
 Background: the ribbon model continued in L
 (:func:`skfem_sheet.reduced.maps.ribbon_map`), cached in
 ``data_dir/fig6-<quality>-ribbon.csv``; its jumps; markers where the
-finite-element modes exist and the FE bistable region (fold map).
+finite-element modes exist and the FE bistable region.  By default
+(``method="curves"``) the bistable region is the traced fold curve of each
+a/R (L1*, the cusp, L0*) and the markers above the cusp come from it; only
+the shape factors below the cusp, where the transition is continuous, take a
+fold-map point each.  ``method="grid"``: everything from the fold map (the
+reference).
 
 Examples
 --------
@@ -21,7 +26,19 @@ from tqdm.auto import tqdm
 from ..reduced import maps
 from .cache import cached, data_folder
 from .common import DEFAULT_DATA_DIR, QUALITIES, arange, quality_settings
-from .data import fold_lines, fold_map_table, foldmap, map_grid_points, select_rows, usable
+from .data import (
+    curve_fold_lines,
+    curve_modes,
+    figure_method,
+    fold_curve_points,
+    fold_curve_table,
+    fold_lines,
+    fold_map_table,
+    foldmap,
+    map_grid_points,
+    select_rows,
+    usable,
+)
 from .style import COLUMN_WIDTH, STYLE, fmt, footnote, halo, hmax_of, new_figure
 
 __all__ = ["fig6_points", "fig6_ribbon", "draw_fig6", "fig6"]
@@ -106,7 +123,15 @@ def _fold_polyline(lines):
         b.append(np.nan)
     return np.array(L + list(lines["L1"])), np.array(b + list(lines["b"]))
 
-def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
+def _curve_rows(curves):
+    """``{a/R: row}`` of the curves in (L, b/a) of a fold-curve table."""
+    if curves is None or not len(curves):
+        return {}
+    rows = curves[curves["second"] == "tip_width"]
+    return {float(r["curvature"]): r for _, r in rows.iterrows()}
+
+
+def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None, curves=None):
     """Draw Fig. 6: ribbon-model d/a over (L/a, b/a) at (a) a/R = 2.5 and (b) a/R = 5,
     with the FE modes and bistable region.
 
@@ -123,6 +148,12 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
         Fold-map rows at a/R = 2.5 and 5.
     rom : pandas.DataFrame
         From :func:`fig6_ribbon`.
+    curves : pandas.DataFrame, optional
+        Fold-curve rows (:func:`skfem_sheet.studies.foldmap.fold_curves`): the
+        bistable region of an a/R with a bistable curve is drawn from it, and
+        its markers above the cusp (at the quality's grid of b/a, or at the
+        b/a of ``fe``); ``fe`` rows of that a/R above the cusp are then not
+        used.
     mode_lengths : array_like, optional
         L/a of the mode markers (default 0.6, 0.7, ..., 2.8).
 
@@ -159,6 +190,7 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
     dL = float(np.min(np.diff(np.unique(Lm)))) if np.unique(Lm).size > 1 else 0.2
     msq, mdi = (4.6, 2.6) if dL >= 0.15 else (3.4, 2.0)
     crit = foldmap.critical_tip_width(fe) if len(fe) else {}
+    by_curve = _curve_rows(curves)
     records = {c: select_rows(rom, curvature=c).to_dict("records") for c in _FIG6_CURVATURES}
     grids = {c: maps.map_grid(r, "increasing") for c, r in records.items() if r}
     finite = [g[2][g[4]] for g in grids.values()]
@@ -182,9 +214,18 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
                 ax.set_xlim(Ls[0] - 0.5 * (Ls[1] - Ls[0]) if Ls.size > 1 else Ls[0],
                             Ls[-1] + 0.5 * (Ls[1] - Ls[0]) if Ls.size > 1 else Ls[-1])
                 ax.set_ylim(-0.02, 1.02)
-            rows = select_rows(fe, curvature=c)
+            rows = select_rows(fe, curvature=c) if len(fe) else fe
             cd_pts, gd_pts = [], []
+            clines = (curve_fold_lines(by_curve[float(c)]) if float(c) in by_curve else None)
+            b_star = clines["tip"][0] if clines is not None else np.inf
+            if clines is not None:
+                grid = quality_settings(quality)["grid"] if quality in QUALITIES else {}
+                tips = grid.get(float(c), sorted({float(b) for b in rows["tip_width"]})
+                                if len(rows) else [])
+                cd_pts, gd_pts = curve_modes(clines, tips, Lm)
             for _, row in rows.iterrows():
+                if float(row["tip_width"]) > b_star:
+                    continue  # from the fold curve
                 if not usable(row):
                     n_failed += 1
                     continue
@@ -200,8 +241,16 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
                 (ln,) = ax.plot(xy[:, 0], xy[:, 1], linestyle="none", markeredgecolor="black",
                                 markeredgewidth=0.7, path_effects=halo(1.5), **kw)
                 ln.set_gid(f"{gid}|k={fmt(c)}")
-            lines = fold_lines(rows, crit.get(float(c), (np.nan, np.nan, np.nan)))
-            if lines is not None:
+            lines = (None if clines is not None or not len(rows)
+                     else fold_lines(rows, crit.get(float(c), (np.nan, np.nan, np.nan))))
+            if clines is not None:
+                L, b = clines["curve"]
+                (ln,) = ax.plot(L, b, color="black", linewidth=1.3, path_effects=halo(2.6))
+                ln.set_gid(f"fe-folds|k={fmt(c)}")
+                (cu,) = ax.plot([clines["tip"][1]], [clines["tip"][0]], marker="o",
+                                markersize=3.2, color="black", linestyle="none", zorder=6)
+                cu.set_gid(f"fe-cusp|k={fmt(c)}")
+            elif lines is not None:
                 L, b = _fold_polyline(lines)
                 (ln,) = ax.plot(L, b, color="black", linewidth=1.3, path_effects=halo(2.6))
                 ln.set_gid(f"fe-folds|k={fmt(c)}")
@@ -236,7 +285,9 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
         cax.set_ylabel("$d/a$ (ribbon model)")
         cax.tick_params(labelsize=6)
         s = quality_settings(quality) if quality in QUALITIES else {}
-        footnote(fig, quality, f"FE fold map hmax={hmax_of(fe)}; ribbon map "
+        src = (f"FE fold curves hmax={hmax_of(curves)}, map points hmax={hmax_of(fe)}"
+               if by_curve else f"FE fold map hmax={hmax_of(fe)}")
+        footnote(fig, quality, f"{src}; ribbon map "
                                 f"{len(set(rom['length'])) if len(rom) else 0} x "
                                 f"{len(set(rom['tip_width'])) if len(rom) else 0}"
                                 + (f", markers every {fmt(s['fig6_lengths'][2])} in L/a"
@@ -244,8 +295,15 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None):
     return fig
 
 
-def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
+         method=None):
     """Fig. 6: ribbon-model map of d/a over (L/a, b/a) with the FE modes and bistable region.
+
+    ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
+    ``method="curves"`` (the default there): the fold curves at a/R = 2.5 and 5 (the
+    quality's fold-curve table), and fold-map points only at the shape
+    factors of the grid at or below each cusp; ``"grid"``: every point of
+    :func:`fig6_points` from the fold map.
 
     Returns
     -------
@@ -255,7 +313,20 @@ def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig6("quick").savefig("fig6.png", dpi=200)  # doctest: +SKIP
     """
-    fe = fold_map_table(fig6_points(quality), quality, data_dir, progress, workers)
+    method = figure_method(method)
+    Lm = arange(*quality_settings(quality)["fig6_lengths"])
     rom = fig6_ribbon(quality, data_dir, progress, workers)
-    return draw_fig6(fe, rom, quality,
-                     mode_lengths=arange(*quality_settings(quality)["fig6_lengths"]))
+    if method == "grid":
+        fe = fold_map_table(fig6_points(quality), quality, data_dir, progress, workers)
+        return draw_fig6(fe, rom, quality, mode_lengths=Lm)
+    curves = fold_curve_table(fold_curve_points(quality, _FIG6_CURVATURES, rectangle=False),
+                              quality, data_dir, progress, workers)
+    cusp = {}
+    for c, row in _curve_rows(curves).items():
+        lines = curve_fold_lines(row)
+        cusp[c] = lines["tip"][0] if lines is not None else np.inf
+    pts = map_grid_points(quality, lambda c, b: c in _FIG6_CURVATURES
+                          and b <= cusp.get(float(c), np.inf))
+    fe = (fold_map_table(pts, quality, data_dir, progress, workers) if pts
+          else pd.DataFrame(columns=list(foldmap.MAP_COLUMNS)))
+    return draw_fig6(fe, rom, quality, mode_lengths=Lm, curves=curves)

@@ -1,8 +1,11 @@
-"""Fig. 7: the bistable region in (L/a, b/a, a/R) from the fold map.
+"""Fig. 7: the bistable region in (L/a, b/a, a/R) from fold curves (or the fold map).
 
 The standout lengths L1* (upper surface) and pop-up lengths L0* (lower) over
-the bistable (b/a, a/R), meeting on the critical curve where L0* = L1*
-(:func:`bistable_region`).
+the bistable (b/a, a/R), meeting on the critical curve where L0* = L1*.  By
+default (``method="curves"``) they come from traced fold curves, one per a/R
+(:func:`skfem_sheet.figures.data.curve_region`), the critical curve being
+their cusps and the rectangle's critical a/R; ``method="grid"`` reads them
+from the point-by-point fold map (:func:`bistable_region`, the reference).
 
 Examples
 --------
@@ -14,7 +17,18 @@ from __future__ import annotations
 import numpy as np
 
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import fold_lines, fold_map_table, foldmap, map_grid_points, select_rows, usable
+from .data import (
+    curve_region,
+    figure_method,
+    fold_curve_points,
+    fold_curve_table,
+    fold_lines,
+    fold_map_table,
+    foldmap,
+    map_grid_points,
+    select_rows,
+    usable,
+)
 from .style import COLUMN_WIDTH, STYLE, fmt, footnote, hmax_of, new_figure
 
 __all__ = ["fig7_points", "bistable_region", "region_mesh", "draw_fig7", "fig7"]
@@ -126,7 +140,7 @@ def region_mesh(region):
     return np.array(nodes, float).reshape(-1, 4), np.array(tris, int).reshape(-1, 3)
 
 
-def draw_fig7(df, quality: str = "paper"):
+def draw_fig7(df, quality: str = "paper", region=None):
     """Draw Fig. 7: the bistable region in (L/a, b/a, a/R), (a) in 3D and (b) its sections.
 
     (a) the standout lengths L1* (green, upper surface) and pop-up lengths
@@ -138,7 +152,11 @@ def draw_fig7(df, quality: str = "paper"):
     Parameters
     ----------
     df : pandas.DataFrame
-        Fold-map rows over a grid of (b/a, a/R).
+        Fold-map rows over a grid of (b/a, a/R), or the fold-curve rows of
+        ``region``.
+    region : dict, optional
+        The region to draw (:func:`skfem_sheet.figures.data.curve_region`);
+        default :func:`bistable_region` of ``df``.
 
     Returns
     -------
@@ -163,10 +181,14 @@ def draw_fig7(df, quality: str = "paper"):
     import matplotlib
     from matplotlib.tri import Triangulation
 
-    region = bistable_region(df)
+    from_curves = region is not None
+    region = bistable_region(df) if region is None else region
     nodes, tris = region_mesh(region)
     green, blue = "#2ca02c", "#1f5fbf"
-    n_failed = int(sum(not usable(r) for _, r in df.iterrows()))
+    if from_curves:
+        n_failed = int(sum(bool(r["error"]) or not bool(r["converged"]) for _, r in df.iterrows()))
+    else:
+        n_failed = int(sum(not usable(r) for _, r in df.iterrows()))
     with matplotlib.rc_context(STYLE):
         fig = new_figure(COLUMN_WIDTH, 5.9)
         ax = fig.add_axes([0.02, 0.38, 0.93, 0.56], projection="3d")
@@ -222,18 +244,29 @@ def draw_fig7(df, quality: str = "paper"):
             ax2.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False,
                        handlelength=1.2)
         if n_failed:
-            fig.text(0.5, 0.005, f"{n_failed} map points failed, omitted", ha="center",
+            what = "fold curves did not complete" if from_curves else "map points failed"
+            fig.text(0.5, 0.005, f"{n_failed} {what}, omitted", ha="center",
                      va="bottom", fontsize=6)
         fig.suptitle("Bistable region (FE): standout $L_1^*$ (green, upper) and pop-up "
                      "$L_0^*$ (blue, lower)\nsurfaces meet on the critical curve "
                      "(black, $L_0^*=L_1^*$); (b) $L_1^*$ solid, $L_0^*$ dashed",
                      fontsize=7, y=0.995)
-        footnote(fig, quality, f"FE fold map hmax={hmax_of(df)}")
+        source = (f"FE fold curves ({len(df)}) hmax={hmax_of(df)}" if from_curves
+                  else f"FE fold map hmax={hmax_of(df)}")
+        footnote(fig, quality, source)
     return fig
 
 
-def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
-    """Fig. 7: the bistable region in (L/a, b/a, a/R) from the fold map.
+def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
+         method=None):
+    """Fig. 7: the bistable region in (L/a, b/a, a/R).
+
+    ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
+    ``method="curves"`` (the default there): from the quality's fold curves
+    (:func:`skfem_sheet.figures.data.fold_curve_points`, cached in
+    ``data_dir/foldcurves-<quality>.csv``; the curves not yet traced are
+    traced, in parallel and resumably); ``"grid"``: from the fold-map points
+    of :func:`fig7_points`.
 
     Returns
     -------
@@ -243,5 +276,9 @@ def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig7("quick").savefig("fig7.png", dpi=200)  # doctest: +SKIP
     """
+    method = figure_method(method)
+    if method == "curves":
+        df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress, workers)
+        return draw_fig7(df, quality, region=curve_region(df))
     df = fold_map_table(fig7_points(quality), quality, data_dir, progress, workers)
     return draw_fig7(df, quality)

@@ -43,6 +43,7 @@ import time
 import numpy as np
 
 from ..bistability import fold_lengths
+from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
 from ..params import ParameterError
 from ..version import __version__
 from .runner import (
@@ -61,7 +62,8 @@ from .runner import (
 )
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
-           "transition_length", "modes", "critical_tip_width"]
+           "transition_length", "modes", "critical_tip_width", "CURVE_PARAMETERS",
+           "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves", "critical_curve"]
 
 #: Input parameters of a map point and their defaults.
 MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
@@ -413,3 +415,245 @@ def critical_tip_width(df) -> dict:
             est = float(np.clip(est, lo, hi))
         out[float(c)] = (round(float(est), 10), lo, hi)
     return out
+
+
+# -- the map from fold curves ----------------------------------------------------------------
+#: Input parameters of one fold curve of the map and their defaults: ``second``
+#: is the curve's second parameter, ``"tip_width"`` (the curve in (L, b/a)
+#: at a/R = ``curvature``) or ``"curvature"`` (the curve in (L, a/R) at
+#: b/a = ``tip_width``, from a/R = ``curvature`` down round the cusp where
+#: bistability starts).
+CURVE_PARAMETERS = {"curvature": 2.5, "second": "tip_width", "tip_width": 1.0, "hmax": 0.1,
+                    "layers": None, "thickness": 0.03, "modulus": 735.0, "solver": "auto"}
+_CURVE_NUMERIC = ("curvature", "tip_width", "hmax", "thickness", "modulus")
+#: Columns of the fold-curve table: the folds at the start value (``L1*``,
+#: ``L0*``), the cusp, the curve's points (JSON ``[[p_j, L, kind], ...]`` in
+#: the order traced), the cost.  ``bistable`` is False (and the curve empty)
+#: where the curvature-dominated branch at the start has no fold in the
+#: length range; ``converged``: the curve came back to its start value, or
+#: the sheet is not bistable there.
+CURVE_COLUMNS = (*CURVE_PARAMETERS, "standout_length", "popup_length", "cusp_tip_width",
+                 "cusp_curvature", "cusp_length", "cusp_located", "bistable", "completed",
+                 "converged", "n_points", "factorizations", "factorizations_per_point",
+                 "remeshes", "points", "message", "wall_time_s", "version", "key", "error",
+                 "finished_at")
+_CURVE_FLOAT = (*_CURVE_NUMERIC, "standout_length", "popup_length", "cusp_tip_width",
+                "cusp_curvature", "cusp_length", "factorizations_per_point", "wall_time_s")
+_CURVE_INT = ("layers", "n_points", "factorizations", "remeshes")
+_CURVE_STR = ("second", "solver", "cusp_located", "points", "message", "version", "key",
+              "error", "finished_at")
+
+
+def _normalize_curve(point) -> dict:
+    p = normalize_params(point, CURVE_PARAMETERS, _CURVE_NUMERIC, "fold-curve point")
+    if p["second"] not in ("tip_width", "curvature"):
+        raise ParameterError(f"second must be 'tip_width' or 'curvature', got {p['second']!r}")
+    return p
+
+
+def _curve_key(point) -> str:
+    p = _normalize_curve({k: point[k] for k in CURVE_PARAMETERS if k in point})
+    return hash_key(["fold-curve", *[[k, key_value(p[k])] for k in CURVE_PARAMETERS]])
+
+
+def curve_points(curvatures, *, hmax: float = 0.1, layers=None, thickness: float = 0.03,
+                 modulus: float = 735.0, solver: str = "auto", rectangle_from=None) -> list:
+    """The fold curves of a map: one in (L, b/a) per curvature, and with
+    ``rectangle_from = a/R`` one in (L, a/R) at b/a = 1 from that curvature
+    down (its cusp: the curvature where the rectangle becomes bistable).
+
+    Examples
+    --------
+    >>> pts = curve_points([1.0, 2.5], rectangle_from=2.5)
+    >>> [(p["second"], p["curvature"]) for p in pts]
+    [('tip_width', 1.0), ('tip_width', 2.5), ('curvature', 2.5)]
+    """
+    common = dict(hmax=hmax, layers=layers, thickness=thickness, modulus=modulus, solver=solver)
+    pts = [_normalize_curve(dict(curvature=c, second="tip_width", tip_width=1.0, **common))
+           for c in as_values("curvatures", curvatures)]
+    if rectangle_from is not None:
+        pts.append(_normalize_curve(dict(curvature=rectangle_from, second="curvature",
+                                         tip_width=1.0, **common)))
+    if len(pts) > MAX_POINTS:
+        raise ParameterError(f"at most {MAX_POINTS} curves, got {len(pts)}")
+    return pts
+
+
+def _empty_curve_record(point, key):
+    rec = dict(point)
+    rec.update(standout_length=math.nan, popup_length=math.nan, cusp_tip_width=math.nan,
+               cusp_curvature=math.nan, cusp_length=math.nan, cusp_located="", bistable=False,
+               completed=False, converged=False, n_points=0, factorizations=None,
+               factorizations_per_point=math.nan, remeshes=None, points="[]", message="",
+               wall_time_s=math.nan, version=__version__, key=key, error="")
+    return rec
+
+
+def _run_curve_point(point) -> dict:
+    """One fold curve; every exception becomes a failed record."""
+    key = _curve_key(point)
+    rec = _empty_curve_record(point, key)
+    t0 = time.perf_counter()
+    try:
+        common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
+                      modulus=point["modulus"], solver=point["solver"], check_inertia=0)
+        if point["second"] == "tip_width":
+            c = trace_fold_curve(point["curvature"], **common)
+        else:
+            c = trace_curvature_fold_curve(point["tip_width"], point["curvature"], **common)
+        j = c.second
+        cusp = c.cusp or {}
+        rec.update(standout_length=_nan(c.standout_length), popup_length=_nan(c.popup_length),
+                   cusp_tip_width=_nan(cusp.get("tip_width", point["tip_width"]
+                                                if cusp and j == "curvature" else None)),
+                   cusp_curvature=_nan(cusp.get("curvature", point["curvature"]
+                                                if cusp and j == "tip_width" else None)),
+                   cusp_length=_nan(cusp.get("length")), cusp_located=c.cusp_located,
+                   bistable=bool(c.bistable), completed=bool(c.completed),
+                   converged=bool(c.completed or not c.bistable), n_points=len(c.points),
+                   factorizations=int(c.factorizations),
+                   factorizations_per_point=float(c.factorizations_per_point),
+                   remeshes=int(c.remeshes), message=c.reason,
+                   points=json.dumps([[round(p[j], 8), round(p["length"], 8), p["kind"]]
+                                      for p in c.points], separators=(",", ":")),
+                   wall_time_s=float(c.wall_time_s))
+    except Exception as err:  # noqa: BLE001 - one bad curve must not stop the map
+        record_failure(rec, err, t0)
+    return finish_record(rec)
+
+
+def _run_curve_chunk(points) -> list:
+    return [_run_curve_point(p) for p in points]
+
+
+def _failed_curve_point(point, message, error):
+    rec = _empty_curve_record(point, _curve_key(point))
+    rec.update(message=message, error=error, finished_at=utc_now())
+    return rec
+
+
+def _curve_frame(records):
+    return typed_frame(records, CURVE_COLUMNS, floats=_CURVE_FLOAT, ints=_CURVE_INT,
+                       bools=("bistable", "completed", "converged"), strings=_CURVE_STR)
+
+
+_CURVE_JOB = Job(task=_run_curve_chunk, failed=_failed_curve_point, frame=_curve_frame,
+                 key_of=_curve_key, required=("curvature", "second", "converged"),
+                 desc="fold curves")
+
+
+def _curve_chunks(points, n_workers):
+    """One curve per task, the strongest curvature (the longest curve) first."""
+    return [[p] for p in sorted(points, key=lambda p: -p["curvature"])]
+
+
+def fold_curves(points, table=None, workers=None, scheduler=None, progress=True, *,
+                retry_failed=False):
+    """Trace the fold curves ``points`` (:func:`curve_points`) in parallel, resumably.
+
+    The same runner as :func:`fold_map` (journal beside ``table``, local
+    processes or Dask): a curve already journalled is not traced again.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per curve (:data:`CURVE_COLUMNS`); read it with
+        :func:`curve_halves` and :func:`critical_curve`.
+    """
+    if isinstance(points, dict):
+        raise ParameterError("points must be a list of dicts (use curve_points(...)), got one "
+                             "dict")
+    points = [_normalize_curve(p) for p in points]
+    if scheduler is not None and workers is not None:
+        raise ParameterError("workers must not be given with scheduler (Dask decides)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    path = check_table(table) if table is not None else None
+    keys = [_curve_key(p) for p in points]
+    done, stats = execute(points, keys, _CURVE_JOB, table=path, workers=workers,
+                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                          chunker=_curve_chunks)
+    df = _curve_frame(done[k] for k in keys)
+    df.attrs["fold_curves"] = stats
+    return df
+
+
+def curve_halves(row):
+    """The two folds of a fold-curve row, split at the cusp.
+
+    Returns ``None`` (no points) or a dict: ``standout`` and ``popup``, each
+    ``(q, L)`` arrays sorted by the second parameter ``q`` (b/a, or a/R for a
+    curve in (L, a/R)), both starting at the turning point of ``q`` (the
+    cusp), and ``cusp`` = ``(q*, L*)`` (None if the curve did not turn).
+    The points before the turning point (in the order traced, from the start
+    value) are the standout fold ``L1*``, those after it the pop-up fold; the
+    point at the turn goes with its ``kind`` (with both if the kinds do not
+    change along the curve).
+
+    Examples
+    --------
+    >>> row = {"points": "[[1,1.35,\\"standout\\"],[0.6,1.25,\\"standout\\"],"
+    ...                  "[1,1.2,\\"popup\\"]]", "cusp_tip_width": 0.6, "cusp_length": 1.25,
+    ...        "second": "tip_width"}
+    >>> h = curve_halves(row)
+    >>> h["standout"][0].tolist(), h["popup"][1].tolist(), h["cusp"]
+    ([0.6, 1.0], [1.25, 1.2], (0.6, 1.25))
+    """
+    text = row["points"]
+    data = json.loads(text) if isinstance(text, str) and text else []
+    if not data:
+        return None
+    q = np.array([d[0] for d in data], float)
+    L = np.array([d[1] for d in data], float)
+    k = int(np.argmin(q))
+    name = "cusp_tip_width" if row["second"] == "tip_width" else "cusp_curvature"
+    cq, cL = float(row[name]), float(row["cusp_length"])
+    turned = 0 < k < len(q) - 1 and np.isfinite(cq) and np.isfinite(cL)
+    if not turned:
+        order = np.argsort(q)
+        return {"standout": (q[order], L[order]), "popup": (np.empty(0), np.empty(0)),
+                "cusp": None}
+    kinds = [d[2] if len(d) > 2 else "" for d in data]
+    up, down = slice(0, k + 1), slice(k, len(q))
+    if kinds[0] == "standout" and kinds[-1] == "popup":  # the kinds say where the point at k is
+        up, down = (slice(0, k + 1), slice(k + 1, len(q))) if kinds[k] == "standout" else \
+            (slice(0, k), slice(k, len(q)))
+    halves = {}
+    for name, sl in (("standout", up), ("popup", down)):
+        qq, LL = q[sl], L[sl]
+        keep = qq > cq  # the cusp itself first, then the points beyond it
+        qq, LL = np.concatenate([[cq], qq[keep]]), np.concatenate([[cL], LL[keep]])
+        order = np.argsort(qq, kind="stable")
+        halves[name] = (qq[order], LL[order])
+    halves["cusp"] = (cq, cL)
+    return halves
+
+
+def critical_curve(df) -> list:
+    """The critical curve ``[(b*, a/R, L*)]`` of a fold-curve table, ascending in a/R.
+
+    One point per bistable curve in (L, b/a) with a cusp, and the cusp
+    ``(1, a/R*, L*)`` of a curve in (L, a/R) at b/a = 1 (where the rectangle
+    becomes bistable).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame([dict(second="tip_width", curvature=2.5, tip_width=1.0,
+    ...                         cusp_tip_width=0.63, cusp_curvature=2.5, cusp_length=1.25,
+    ...                         bistable=True, error=""),
+    ...                    dict(second="curvature", curvature=2.5, tip_width=1.0,
+    ...                         cusp_tip_width=1.0, cusp_curvature=1.1, cusp_length=0.9,
+    ...                         bistable=True, error="")])
+    >>> critical_curve(df)
+    [(1.0, 1.1, 0.9), (0.63, 2.5, 1.25)]
+    """
+    out = []
+    for _, r in df.iterrows():
+        if r.get("error") or not bool(r["bistable"]):
+            continue
+        b, c, L = (float(r[k]) for k in ("cusp_tip_width", "cusp_curvature", "cusp_length"))
+        if np.isfinite(b) and np.isfinite(c) and np.isfinite(L):
+            out.append((b, c, L))
+    return sorted(out, key=lambda p: (p[1], -p[0]))

@@ -1,0 +1,164 @@
+"""Fold curves against the point-by-point fold search (issue 19, item 4).
+
+    python benchmarks/fold_curves.py --curvatures 2.5,5 --hmax 0.1 [--compare 2.5]
+        [--map quick --data-dir DIR --workers 2] [--json out.json]
+
+1. For each a/R: trace the fold curve in (L, b/a)
+   (:func:`skfem_sheet.foldcurve.trace_fold_curve`) and print its points,
+   factorisations per point (median), wall time, L1*(1), L0*(1), the cusp
+   (b/a)* and the remeshes.
+2. ``--compare A_R``: the same fold lengths at b/a = 1 by today's
+   point-by-point search (:func:`skfem_sheet.bistability.fold_lengths`:
+   continuation in L from both ends, folds bracketed to +-0.005).
+3. ``--map QUALITY``: the whole map of fold curves of that figure quality
+   (one per a/R of ``figures.data.CURVE_CURVATURES`` plus the rectangle's
+   curve in (L, a/R)), through the resumable fold-curve table in
+   ``--data-dir``: its elapsed time, CPU time, and every curve.
+
+Measured wall times depend on the load of the machine (the load average at
+the start is recorded).
+"""
+import argparse
+import json
+import os
+import time
+
+import pandas as pd
+
+from skfem_sheet.bistability import fold_lengths
+from skfem_sheet.figures.data import fold_curve_points, fold_curve_table
+from skfem_sheet.foldcurve import trace_fold_curve
+from skfem_sheet.io import atomic_write, dumps_json
+
+from _common import machine_info
+
+
+def _fmt(x, spec="7.4f"):
+    return "   none" if x is None or x != x else format(x, spec)
+
+
+def curve_case(curvature, hmax):
+    t0 = time.perf_counter()
+    c = trace_fold_curve(curvature, hmax=hmax, check_inertia=0)
+    wall = time.perf_counter() - t0
+    return dict(curvature=curvature, hmax=hmax, points=len(c.points),
+                factorizations=c.factorizations,
+                factorizations_per_point=c.factorizations_per_point, wall_time_s=wall,
+                standout_length=c.standout_length, popup_length=c.popup_length,
+                cusp=c.cusp, cusp_located=c.cusp_located, remeshes=c.remeshes,
+                completed=c.completed, bistable=c.bistable, reason=c.reason)
+
+
+def pointwise_case(curvature, hmax):
+    t0 = time.perf_counter()
+    r = fold_lengths(1.0, curvature, lengths=(0.5, 3.0), hmax=hmax, step=0.1, tol=0.005)
+    wall = time.perf_counter() - t0
+    its = r.increasing.newton_iterations + (r.decreasing.newton_iterations
+                                            if r.decreasing is not r.increasing else 0)
+    return dict(curvature=curvature, hmax=hmax, standout_length=r.standout_length,
+                popup_length=r.popup_length, newton_iterations=int(its), wall_time_s=wall)
+
+
+def _journalled(quality, data_dir):
+    """The curves of the quality already in the table's journal (nothing computed)."""
+    path = os.path.join(data_dir, f"foldcurves-{quality}.csv.journal.jsonl")
+    want = {(p["second"], p["curvature"]) for p in fold_curve_points(quality)}
+    recs = {}
+    if os.path.exists(path):
+        with open(path) as fh:
+            for line in fh:
+                try:
+                    r = json.loads(line)
+                except ValueError:
+                    continue  # a line cut short
+                if (r.get("second"), r.get("curvature")) in want:
+                    recs[(r["second"], r["curvature"])] = r
+    return pd.DataFrame(list(recs.values())), sorted(want - set(recs))
+
+
+def map_case(quality, data_dir, workers, partial=False):
+    t0 = time.perf_counter()
+    missing = []
+    if partial:
+        df, missing = _journalled(quality, data_dir)
+    else:
+        df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress=False,
+                              workers=workers)
+    wall = time.perf_counter() - t0
+    rows = []
+    for _, r in df.iterrows():
+        rows.append({k: (None if (isinstance(v, float) and v != v) else v) for k, v in dict(
+            second=r.second, curvature=float(r.curvature), standout_length=r.standout_length,
+            popup_length=r.popup_length, cusp_tip_width=r.cusp_tip_width,
+            cusp_curvature=r.cusp_curvature, cusp_length=r.cusp_length,
+            cusp_located=r.cusp_located, bistable=bool(r.bistable), completed=bool(r.completed),
+            points=int(r.n_points), factorizations_per_point=r.factorizations_per_point,
+            remeshes=None if r.remeshes != r.remeshes else int(r.remeshes),
+            wall_time_s=r.wall_time_s, message=r.message, error=r.error).items()})
+    return dict(quality=quality, elapsed_s=wall, cpu_s=float(df.wall_time_s.sum()),
+                curves=len(df), completed=int(df.completed.sum()),
+                not_bistable=int((~df.bistable & df.converged).sum()),
+                failed=int((~df.converged).sum()), rows=rows,
+                missing=[list(m) for m in missing])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--curvatures", default="2.5,5")
+    ap.add_argument("--hmax", type=float, default=0.1)
+    ap.add_argument("--compare", type=float, default=None, metavar="A_R",
+                    help="also the point-by-point search at b/a = 1 and this a/R")
+    ap.add_argument("--map", default=None, choices=("quick", "paper"))
+    ap.add_argument("--data-dir", default="skfem_sheet_data")
+    ap.add_argument("--partial", action="store_true",
+                    help="--map: report the curves already in the table, compute nothing")
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    out = dict(machine=machine_info(), curves=[], pointwise=None, map=None)
+    curvatures = [float(x) for x in args.curvatures.split(",") if x]
+    print(" ".join(["python benchmarks/fold_curves.py", *(argv or __import__("sys").argv[1:])]))
+    print(f"fold curves at hmax {args.hmax:g} (load average at start "
+          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    print("  a/R  points  fact/pt  wall s      L1*(1)   L0*(1)   cusp b/a  cusp L  remeshes")
+    for c in curvatures:
+        r = curve_case(c, args.hmax)
+        out["curves"].append(r)
+        cusp = r["cusp"] or {}
+        print(f"{c:5.2f}  {r['points']:6d}  {r['factorizations_per_point']:7.1f}  "
+              f"{r['wall_time_s']:6.0f}   {_fmt(r['standout_length'])}  "
+              f"{_fmt(r['popup_length'])}   {_fmt(cusp.get('tip_width'))}  "
+              f"{_fmt(cusp.get('length'))}  {r['remeshes']:8d}"
+              + ("" if r["completed"] else f"  ({r['reason']})"), flush=True)
+    if args.compare is not None:
+        r = pointwise_case(args.compare, args.hmax)
+        out["pointwise"] = r
+        print(f"point by point (fold_lengths, +-0.005) at a/R {args.compare:g}, b/a 1: "
+              f"L1* {_fmt(r['standout_length'])}, L0* {_fmt(r['popup_length'])}, "
+              f"{r['newton_iterations']} Newton iterations, {r['wall_time_s']:.0f} s", flush=True)
+    if args.map:
+        m = map_case(args.map, args.data_dir, args.workers, args.partial)
+        out["map"] = m
+        print(f"map of fold curves, quality {args.map}: {m['curves']} curves, "
+              f"{m['completed']} completed, {m['not_bistable']} not bistable, "
+              f"{m['failed']} failed; elapsed {m['elapsed_s']:.0f} s (this run; 0 if all "
+              f"were in the table), CPU {m['cpu_s']:.0f} s")
+        print("  curve        a/R      L1*      L0*   cusp b/a  cusp a/R  cusp L  points  "
+              "fact/pt  remeshes  wall s")
+        for r in m["rows"]:
+            which = "(L, b/a)" if r["second"] == "tip_width" else "(L, a/R)"
+            print(f"  {which}  {r['curvature']:5.2f}  {_fmt(r['standout_length'])}  "
+                  f"{_fmt(r['popup_length'])}   {_fmt(r['cusp_tip_width'])}   "
+                  f"{_fmt(r['cusp_curvature'])}  {_fmt(r['cusp_length'])}  {r['points']:6d}  "
+                  f"{_fmt(r['factorizations_per_point'], '7.1f')}  "
+                  f"{r['remeshes'] if r['remeshes'] is not None else '-':>8}  "
+                  f"{_fmt(r['wall_time_s'], '6.0f')}"
+                  + ("" if r["completed"] else f"  {r['message'] or r['error']}"))
+        if m["missing"]:
+            print("not yet in the table: " + ", ".join(f"{s} a/R {c:g}" for s, c in m["missing"]))
+    if args.json:
+        atomic_write(args.json, dumps_json(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()
