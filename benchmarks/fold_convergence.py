@@ -38,6 +38,8 @@ import os
 import resource
 import sys
 import time
+from functools import partial
+from unittest import mock
 
 import numpy as np
 
@@ -46,9 +48,11 @@ try:
 except ImportError:  # run from a checkout without installing: use the repository next door
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
+from skfem_sheet import foldcurve
 from skfem_sheet.engine import natural
 from skfem_sheet.foldcurve import TOLERANCES, SheetFoldProblem
 from skfem_sheet.io import atomic_write, dumps_json
+from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 
 #: Fold tolerance of the paper's fold lengths (the bisection's bracket, +-0.005).
@@ -64,16 +68,25 @@ def _peak_mb():
 
 
 def locate(curvature, hmax, kind, start, *, solver="auto", layers=None, step=0.02,
-           min_step=5e-4):
+           min_step=5e-4, refine=0):
     """One fold at b = 1: ``kind`` "standout" (curvature-first, L upward) or
     "popup" (gravity-first, L downward), from the length ``start``.
+
+    ``refine`` > 0: the mesh of ``hmax`` refined uniformly ``refine`` times
+    (nested; :class:`~skfem_sheet.foldcurve.SheetFoldProblem` has no such
+    option, so the mesh builder it calls is given ``refine`` while the problem
+    is built).
 
     Returns a JSON-ready dict (``length`` None if no fold was found).
     """
     t0 = time.perf_counter()
     up = kind == "standout"
     mesh_length = start + (0.02 if up else -0.02)
-    P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver)
+    if refine:
+        with mock.patch.object(foldcurve, "sheet_mesh", partial(sheet_mesh, refine=refine)):
+            P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver)
+    else:
+        P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver)
     p0 = np.array([start, 1.0, curvature])
     path = "curvature-first" if up else "gravity-first"
     out = {"kind": kind, "start_length": start, "mesh_length": mesh_length, "path": path,
@@ -128,13 +141,19 @@ def _case(doc, curvature):
     return c
 
 
-def _mesh(case, hmax):
+def _h(m):
+    """The mesh size of a record (hmax / 2^refine)."""
+    return m["hmax"] / 2 ** m.get("refine", 0)
+
+
+def _mesh(case, hmax, refine=0):
     for m in case["meshes"]:
-        if abs(m["hmax"] - hmax) < 1e-12 and m.get("refine", 0) == 0:
+        if abs(m["hmax"] - hmax) < 1e-12 and m.get("refine", 0) == refine:
             return m
-    m = {"hmax": hmax, "refine": 0, "popup_length": None, "standout_length": None}
+    m = {"hmax": hmax, "refine": refine, "h": hmax / 2 ** refine, "popup_length": None,
+         "standout_length": None}
     case["meshes"].append(m)
-    case["meshes"].sort(key=lambda m: -m["hmax"] / 2 ** m.get("refine", 0))
+    case["meshes"].sort(key=lambda m: (-_h(m), m.get("refine", 0)))
     return m
 
 
@@ -150,7 +169,8 @@ def summarize(case):
         if len(vals) >= 2:
             a, b = vals[-2], vals[-1]
             d = abs(b[key] - a[key])
-            change[key] = {"coarse_hmax": a["hmax"], "fine_hmax": b["hmax"], "change": d,
+            change[key] = {"coarse_hmax": a["hmax"], "coarse_refine": a.get("refine", 0),
+                           "fine_hmax": b["hmax"], "fine_refine": b.get("refine", 0), "change": d,
                            "tolerance": TOLERANCE, "within": bool(d <= TOLERANCE)}
     case["change"] = change
     return case
@@ -159,11 +179,14 @@ def summarize(case):
 def table(doc) -> str:
     lines = [f"Fold lengths of the rectangle (b/a = 1) under mesh refinement; fold tolerance "
              f"+-{TOLERANCE}",
-             "folds located at b = 1 by natural continuation in L and the minimally augmented "
-             "system (skfem_sheet.engine)",
-             f"{'a/R':>5} {'hmax':>6} {'ndof':>8} {'L0* pop-up':>11} {'dL0*':>8} "
+             "folds at b = 1 by natural continuation in L (skfem_sheet.engine), located with the "
+             "minimally augmented system;",
+             "  * = that system did not converge: the end of the branch to min_step 5e-4 "
+             "(the branch exists there)",
+             "  refine r: the mesh of hmax refined uniformly r times (nested, h = hmax / 2^r)",
+             f"{'a/R':>5} {'hmax':>6} {'r':>2} {'ndof':>8} {'L0* pop-up':>11} {'dL0*':>8} "
              f"{'L1* standout':>13} {'dL1*':>8} {'fact':>6} {'wall s':>8} {'peak MB':>8}",
-             "-" * 92]
+             "-" * 95]
     for case in doc.get("curvatures", []):
         prev = {}
         for m in case["meshes"]:
@@ -171,21 +194,29 @@ def table(doc) -> str:
             for key in ("popup_length", "standout_length"):
                 v = m.get(key)
                 d = "" if v is None or prev.get(key) is None else f"{v - prev[key]:+.4f}"
-                cells += ["none" if v is None else f"{v:.4f}", d]
+                run = m.get(key.split("_")[0])
+                star = ("*" if isinstance(run, dict) and run.get("bracket") is not None
+                        else "")
+                cells += ["none" if v is None else f"{v:.4f}{star}", d]
                 if v is not None:
                     prev[key] = v
             runs = [m[k] for k in ("popup", "standout") if isinstance(m.get(k), dict)]
             ndof = max((r.get("ndof", 0) for r in runs), default=0)
             peak = max((r.get("peak_rss_mb", 0) for r in runs), default=0)
-            lines.append(f"{case['curvature']:>5g} {m['hmax']:>6g} {ndof:>8d} {cells[0]:>11} "
+            lines.append(f"{case['curvature']:>5g} {m['hmax']:>6g} {m.get('refine', 0):>2d} "
+                         f"{ndof:>8d} {cells[0]:>11} "
                          f"{cells[1]:>8} {cells[2]:>13} {cells[3]:>8} "
                          f"{m.get('factorizations', 0):>6d} {m.get('wall_time_s', 0):>8.0f} "
                          f"{peak:>8.0f}")
         for key, label in (("popup_length", "L0*"), ("standout_length", "L1*")):
             c = case.get("change", {}).get(key)
             if c:
-                lines.append(f"  a/R = {case['curvature']:g}: |{label}(hmax {c['fine_hmax']:g}) - "
-                             f"{label}(hmax {c['coarse_hmax']:g})| = {c['change']:.4f} "
+                fine = f"hmax {c['fine_hmax']:g}" + (f" r{c['fine_refine']}"
+                                                     if c.get("fine_refine") else "")
+                coarse = f"hmax {c['coarse_hmax']:g}" + (f" r{c['coarse_refine']}"
+                                                         if c.get("coarse_refine") else "")
+                lines.append(f"  a/R = {case['curvature']:g}: |{label}({fine}) - "
+                             f"{label}({coarse})| = {c['change']:.4f} "
                              f"{'<=' if c['within'] else '>'} {TOLERANCE}: "
                              f"{'within' if c['within'] else 'NOT within'} the fold tolerance")
     return "\n".join(lines) + "\n"
@@ -198,6 +229,8 @@ def main(argv=None):
     ap.add_argument("--txt", default=None, help="table (also printed)")
     ap.add_argument("--curvatures", type=float, nargs="+", default=[2.5, 5.0])
     ap.add_argument("--hmax", type=float, nargs="+", default=[0.1, 0.06, 0.045, 0.03])
+    ap.add_argument("--refine", type=float, nargs="*", default=[],
+                    help="hmax values whose mesh is also refined once (nested)")
     ap.add_argument("--solver", default="auto")
     ap.add_argument("--layers", type=int, default=None)
     args = ap.parse_args(argv)
@@ -216,9 +249,11 @@ def main(argv=None):
 
     for kappa in args.curvatures:
         case = _case(doc, kappa)
-        for hmax in sorted(args.hmax, reverse=True):
-            m = _mesh(case, hmax)
-            coarser = [c for c in case["meshes"] if c["hmax"] > hmax + 1e-12]
+        plan = sorted([(h, 0) for h in args.hmax] + [(h, 1) for h in args.refine],
+                      key=lambda hr: (-hr[0] / 2 ** hr[1], hr[1]))
+        for hmax, refine in plan:
+            m = _mesh(case, hmax, refine)
+            coarser = [c for c in case["meshes"] if _h(c) > _h(m) + 1e-12]
             for kind in ("standout", "popup"):
                 key = f"{kind}_length"
                 if m.get(key) is not None:
@@ -233,10 +268,12 @@ def main(argv=None):
                     if L1 is not None:
                         starts = [s for s in starts if s < L1 - 0.005] + [L1 - 0.01]
                 for start in starts:
-                    print(f"a/R {kappa:g} hmax {hmax:g}: {kind} from L = {start:.4f} ...",
+                    print(f"a/R {kappa:g} hmax {hmax:g} refine {refine}: {kind} from "
+                          f"L = {start:.4f} ...",
                           flush=True)
                     run = locate(kappa, hmax, kind, start, solver=args.solver,
-                                 layers=args.layers, step=0.02 if prev is None else 0.005)
+                                 layers=args.layers, step=0.02 if prev is None else 0.005,
+                                 refine=refine)
                     print(f"  -> L = {run['length']}  ({run.get('factorizations')} "
                           f"factorizations, {run['wall_time_s']:.0f} s; {run.get('reason')})",
                           flush=True)
