@@ -1,7 +1,10 @@
 """Fold lengths L0* (pop-up) and L1* (standout) of the rectangle under mesh refinement (issue 13, item 3).
 
     python benchmarks/fold_convergence.py [--json out.json] [--txt out.txt]
-        [--curvatures 2.5 5] [--hmax 0.1 0.06 0.045 0.03] [--solver auto]
+        [--curvatures 2.5 5] [--hmax 0.1 0.06 0.045 0.03] [--refine 0.1] [--solver auto]
+
+(default record and table: ``benchmarks/results/fold_convergence.{json,txt}``;
+delete them to recompute from scratch).
 
 For every clamp curvature a/R and mesh size hmax, the two folds of the
 rectangle (b/a = 1) are located directly at b = 1 with the continuation
@@ -55,6 +58,8 @@ from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 
+#: Where the recorded outputs live.
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 #: Fold tolerance of the paper's fold lengths (the bisection's bracket, +-0.005).
 TOLERANCE = 0.005
 #: First standout search (length of the curvature-first solve) per curvature.
@@ -224,9 +229,11 @@ def table(doc) -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--json", default=None, help="record (rewritten after every fold; reruns "
-                    "skip the folds already there)")
-    ap.add_argument("--txt", default=None, help="table (also printed)")
+    ap.add_argument("--json", default=os.path.join(RESULTS, "fold_convergence.json"),
+                    help="record (rewritten after every fold; reruns skip the folds already "
+                         "there)")
+    ap.add_argument("--txt", default=os.path.join(RESULTS, "fold_convergence.txt"),
+                    help="table (also printed)")
     ap.add_argument("--curvatures", type=float, nargs="+", default=[2.5, 5.0])
     ap.add_argument("--hmax", type=float, nargs="+", default=[0.1, 0.06, 0.045, 0.03])
     ap.add_argument("--refine", type=float, nargs="*", default=[],
