@@ -39,7 +39,16 @@ from .data import (
     select_rows,
     usable,
 )
-from .style import COLUMN_WIDTH, STYLE, fmt, footnote, halo, hmax_of, new_figure
+from .style import (
+    COLUMN_WIDTH,
+    FOLD_ACCURACY,
+    STYLE,
+    fmt,
+    footnote,
+    halo,
+    hmax_of,
+    new_figure,
+)
 
 __all__ = ["fig6_points", "fig6_ribbon", "draw_fig6", "fig6"]
 
@@ -291,7 +300,7 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None, curves=None):
                                 f"{len(set(rom['length'])) if len(rom) else 0} x "
                                 f"{len(set(rom['tip_width'])) if len(rom) else 0}"
                                 + (f", markers every {fmt(s['fig6_lengths'][2])} in L/a"
-                                   if s else ""))
+                                   if s else "") + f"; {FOLD_ACCURACY}")
     return fig
 
 

@@ -29,7 +29,7 @@ from .data import (
     select_rows,
     usable,
 )
-from .style import COLUMN_WIDTH, STYLE, fmt, footnote, hmax_of, new_figure
+from .style import COLUMN_WIDTH, FOLD_ACCURACY, STYLE, fmt, footnote, hmax_of, new_figure
 
 __all__ = ["fig7_points", "bistable_region", "region_mesh", "draw_fig7", "fig7"]
 
@@ -253,7 +253,7 @@ def draw_fig7(df, quality: str = "paper", region=None):
                      fontsize=7, y=0.995)
         source = (f"FE fold curves ({len(df)}) hmax={hmax_of(df)}" if from_curves
                   else f"FE fold map hmax={hmax_of(df)}")
-        footnote(fig, quality, source)
+        footnote(fig, quality, f"{source}; {FOLD_ACCURACY}")
     return fig
 
 

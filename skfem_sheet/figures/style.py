@@ -46,6 +46,12 @@ def new_figure(width, height):
     return plt.figure(figsize=(width, height))
 
 
+#: How well a mesh resolves the fold lengths (benchmarks/fold_convergence.py,
+#: docs/verification.md): quoted in the footnotes of the figures showing L0*, L1*.
+FOLD_ACCURACY = ("hmax 0.1 puts L0*, L1* 0.004-0.0065 long; "
+                 "hmax <= 0.06 resolves them to +-0.005")
+
+
 def footnote(fig, quality, text, top=False):
     """The grey "quick quality: ..." note in a corner of quick figures (none for paper)."""
     if quality == "quick":
