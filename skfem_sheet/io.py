@@ -78,7 +78,7 @@ def to_jsonable(x):
     return x
 
 
-def dumps_json(data, indent=2) -> str:
+def dumps_json(data, indent=2, compact=False) -> str:
     """``data`` as JSON text (see :func:`to_jsonable`), strict: no NaN literals.
 
     Examples
@@ -86,6 +86,8 @@ def dumps_json(data, indent=2) -> str:
     >>> dumps_json({"x": float("nan")}, indent=None)
     '{"x": null}'
     """
+    if compact:  # one line, no spaces: journal lines and table cells
+        return json.dumps(to_jsonable(data), separators=(",", ":"), allow_nan=False)
     return json.dumps(to_jsonable(data), indent=indent, allow_nan=False)
 
 

@@ -44,6 +44,7 @@ import numpy as np
 
 from ..bistability import fold_lengths
 from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
+from ..io import dumps_json
 from ..params import ParameterError
 from ..version import __version__
 from .runner import (
@@ -150,10 +151,10 @@ def _empty_record(point, key):
 
 
 def _curve_json(branch) -> str:
-    return json.dumps({"lengths": [round(float(x), 10) for x in branch.lengths],
+    return dumps_json({"lengths": [round(float(x), 10) for x in branch.lengths],
                        "deflection": [float(x) for x in branch.deflections],
                        "stable": [None if s is None else bool(s) for s in branch.stable]},
-                      separators=(",", ":"))
+                      compact=True)
 
 
 def _nan(x):

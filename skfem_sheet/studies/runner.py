@@ -54,7 +54,7 @@ from typing import Callable
 import pandas as pd
 from tqdm.auto import tqdm
 
-from ..io import atomic_write, check_writable
+from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
 __all__ = ["Job", "execute", "Journal", "journal_path", "read_journal", "write_table",
@@ -233,7 +233,7 @@ class Journal:
                 os.write(self.fd, b"\n")
 
     def append(self, rec) -> None:
-        data = (json.dumps(rec, separators=(",", ":")) + "\n").encode()
+        data = (dumps_json(rec, compact=True) + "\n").encode()
         n = os.write(self.fd, data)
         while n < len(data):  # short writes are rare on files; finish the line
             n += os.write(self.fd, data[n:])
