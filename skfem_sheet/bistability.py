@@ -38,6 +38,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from .analyses.observables import free_edge_nodes, tip_deflection
 from .analyses.stability import stability
@@ -48,6 +49,7 @@ from .mesh import sheet_mesh
 from .newton import NewtonOptions, Stats, newton, timed
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
+from .version import __version__
 
 __all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
            "follow_length", "follow_curvature", "fold_lengths", "s_curve"]
@@ -427,8 +429,6 @@ class Bistability:
 
     def summary(self) -> dict:
         """JSON-ready summary (the CLI's ``--json``)."""
-        from . import __version__
-
         def branch(b):
             return {"lengths": b.lengths.tolist(), "deflection": b.deflections.tolist(),
                     "stable": b.stable, "fold": b.fold,
@@ -494,8 +494,6 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
 
 class _Bar:
     def __init__(self, desc, start, stop):
-        from tqdm.auto import tqdm
-
         self.start = start
         self.bar = tqdm(total=round(abs(stop - start), 3), desc=desc, unit="L",
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| L={postfix}")

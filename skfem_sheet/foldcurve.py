@@ -41,12 +41,14 @@ interfaces move).
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
 from skfem import MeshTet
+from tqdm.auto import tqdm
 
 from .analyses.stability import stability
 from .analyses.transfer import transfer
@@ -467,10 +469,6 @@ class _Progress:
         self.j, self.name = j, name
         self.bar = None
         if enabled:
-            import sys
-
-            from tqdm.auto import tqdm
-
             self.bar = tqdm(desc="fold curve", unit="pt", file=sys.stderr)
 
     def __call__(self, pt):

@@ -24,7 +24,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
+from .corrector import (
+    DEFAULT_TOLERANCES,
+    Bordered,
+    NewtonResult,
+    Tolerances,
+    correct,
+    plain_linearization,
+)
 from .fold import FoldSystem, fold_point, locate_fold
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
@@ -97,8 +104,6 @@ class Branch:
 
 
 def _start(counter, u0, p0, tol):
-    from .corrector import plain_linearization
-
     res = correct(counter, u0, p0, plain_linearization(counter), tol)
     return res
 
@@ -214,8 +219,6 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
 
 
 def _fixed(counter):
-    from .corrector import plain_linearization
-
     return plain_linearization(counter)
 
 

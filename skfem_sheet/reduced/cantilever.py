@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from skfem_sheet.params import ParameterError
+from skfem_sheet.params import ParameterError, Sheet
 from skfem_sheet.reduced._common import as_sheet, weight_per_area
 from skfem_sheet.reduced.persistence import PersistenceResult, persistence_length
 
@@ -117,7 +117,6 @@ def _flat_drop_planform(sheet, Lp: float) -> float:
 
 def cantilever_coefficient(tip_width: float, length: float, Lp: float) -> float:
     """C in d_flat = C rho g h (L - L_p)^4 / D for the linear profile p = 1 + (b-1)s/L."""
-    from skfem_sheet.params import Sheet
     sheet = Sheet(length=length, tip_width=tip_width, thickness=min(0.03, 0.5 * length))
     return flat_cantilever_drop(sheet, Lp) * sheet.bending_modulus / (
         weight_per_area(sheet) * (length - Lp) ** 4)

@@ -69,6 +69,7 @@ def elastica_linear_deflection(sheet) -> float:
     >>> abs(elastica_linear_deflection(s) - 0.03 / (8 * s.bending_modulus)) < 1e-12
     True
     """
+    # deferred: cantilever imports this module (a cycle at import time)
     from skfem_sheet.reduced.cantilever import flat_cantilever_drop
     sheet = as_sheet(sheet)
     return flat_cantilever_drop(sheet, 0.0)
