@@ -515,8 +515,8 @@ def _run_curve_point(point) -> dict:
                    factorizations=int(c.factorizations),
                    factorizations_per_point=float(c.factorizations_per_point),
                    remeshes=int(c.remeshes), message=c.reason,
-                   points=json.dumps([[round(p[j], 8), round(p["length"], 8), p["kind"]]
-                                      for p in c.points], separators=(",", ":")),
+                   points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
+                                      for p in c.points], compact=True),
                    wall_time_s=float(c.wall_time_s))
     except Exception as err:  # noqa: BLE001 - one bad curve must not stop the map
         record_failure(rec, err, t0)
