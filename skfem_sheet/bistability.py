@@ -44,9 +44,11 @@ from .analyses.observables import free_edge_nodes, tip_deflection
 from .analyses.stability import stability
 from .analyses.transfer import transfer
 from .continuation import follow_path
-from .linalg import LinearSolverError, make_linear_solver
+from .engine import EngineFailure, Problem, Tolerances, arclength, correct, natural
+from .engine.protocol import Counting
+from .linalg import make_linear_solver
 from .mesh import sheet_mesh
-from .newton import NewtonOptions, Stats, newton, timed
+from .newton import NewtonOptions, Stats
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .version import __version__
@@ -145,13 +147,6 @@ def _residual_rate(problem, w, g=1.0, rel=1e-6):
     return (rp - rm) / (2 * eps)
 
 
-def _length_tangent(problem, w, solver):
-    """``dw/dL`` on the free dofs, with the last factorisation: ``K dw = -dr/dL``."""
-    dw = np.zeros(problem.ndof)
-    dw[problem.free] = solver.solve(-_residual_rate(problem, w)[problem.free])
-    return dw
-
-
 # ----------------------------------------------------------------------------
 # a sheet that changes length: one mesh, stretched, remeshed when needed
 # ----------------------------------------------------------------------------
@@ -160,6 +155,7 @@ class _Stretched:
 
     def __init__(self, sheet, hmax, layers, solver, symmetric):
         self.hmax, self.layers, self.solver_name, self.half = hmax, layers, solver, symmetric
+        self.generation = 0  # counts factorisations of ``solver``
         self._build(sheet)
 
     def _build(self, sheet):
@@ -175,24 +171,194 @@ class _Stretched:
         s = length / self.base.sheet_mesh.length
         return not 1.0 / MAX_STRETCH <= s <= MAX_STRETCH
 
-    def remesh(self, problem, w, options, stats, path):
-        """New mesh at ``problem.length``; returns ``(problem, state)`` or None.
 
-        The state is interpolated onto the new mesh and re-converged.  An
-        interpolated thin-sheet state is not exactly incompressible on the new
-        mesh, and Newton may need many iterations from it; if it fails within
-        ``options.max_iterations``, the new mesh is solved afresh along the
-        branch's own load path (which selects the same branch inside the
-        bistable range; the caller checks the deflection for continuity).
-        """
-        old = problem
-        self._build(problem.sheet)
-        new = self.base
-        res = newton(new, transfer(old, w, new), 1.0, self.solver, options, stats)
-        if res.converged:
-            return new, res.w
-        out = follow_path(new, path, new.sheet.curvature, self.solver, stats=stats)
-        return (new, out.w) if out.converged else None
+# ----------------------------------------------------------------------------
+# the sheet as an engine problem in one parameter (L or a/R)
+# ----------------------------------------------------------------------------
+#: The sheet's Newton options (:class:`skfem_sheet.newton.NewtonOptions`) as
+#: the engine's stopping rule: the residual relative to the weight, the
+#: largest displacement correction (see :func:`_chord_linearization`).
+_OPTIONS = NewtonOptions()
+
+
+def _tolerances(max_correction=np.inf):
+    # one more linearisation than factorisations: the last one only confirms
+    return Tolerances(rtol=_OPTIONS.rtol, utol=_OPTIONS.utol,
+                      max_iterations=_OPTIONS.max_iterations + 1,
+                      max_halvings=_OPTIONS.max_halvings, max_correction=max_correction)
+
+
+def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
+    """Newton steps with the sheet's stopping rule (:func:`skfem_sheet.newton.newton`).
+
+    At an iterate whose residual is below ``rtol``, the correction is first
+    computed with the last factorisation (a back-substitution, no
+    factorisation spent only to confirm convergence); if it is below ``utol``
+    the corrector stops there.  Otherwise the tangent is factorised at the
+    iterate, at most ``max_factorizations`` times per correction.
+    """
+    state = {"fact": None, "n": 0}
+    tol = _OPTIONS
+
+    def linearize(u, p):
+        r = counter.residual(u, p)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("inverted element or NaN in the residual")
+        rn = counter.residual_norm(r)
+        if state["fact"] is not None and rn <= tol.rtol:
+            du = state["fact"].solve(-r)
+            if counter.correction_norm(du) <= tol.utol:
+                return rn, du, np.zeros_like(p), state["fact"], None
+        if state["n"] >= max_factorizations:
+            raise EngineFailure("max iterations")
+        J = counter.jacobian(u, p)
+        fact = counter.factorize(J)
+        state["fact"], state["n"] = fact, state["n"] + 1
+        return rn, fact.solve(-r), np.zeros_like(p), fact, J
+    return linearize
+
+
+class _Factorization:
+    """The tangent factorised on the track's solver; refactorised if the solver
+    has factorised something else since."""
+
+    def __init__(self, owner, J, w):
+        self.owner, self.J, self.w = owner, J, w
+        self.generation = owner.track.generation
+        self._stability = None
+
+    def _ready(self):
+        track = self.owner.track
+        if track.generation != self.generation:
+            track.solver.factorize(self.J, self.w)
+            track.generation += 1
+            self.generation = track.generation
+
+    def solve(self, b):
+        self._ready()
+        return self.owner.track.solver.solve(b)
+
+    def stability(self):
+        """``(stable, negative eigenvalues)`` (:func:`stability`)."""
+        if self._stability is None:
+            self._ready()
+            self._stability = stability(self.owner.track.base, self.owner.track.solver)
+        return self._stability
+
+    def inertia(self):
+        return self.stability()[1]
+
+
+class _SheetBranchProblem(Problem):
+    """The sheet at full load on a :class:`_Stretched` track, as an engine
+    problem in one parameter: the length ``"L"`` (the mesh stretched in x)
+    or the clamp curvature ``"a/R"`` (the clamped values; the length fixed).
+
+    The state ``u`` holds the free dofs.  Norms as in
+    :mod:`skfem_sheet.newton`: the residual relative to the weight,
+    corrections as the largest displacement; the arclength inner product
+    weighs the mean square of the displacements plus the square of the tip's
+    vertical displacement (pressures left out).
+    """
+
+    def __init__(self, track, name, length, curvature):
+        self.track, self.parameter_names = track, (name,)
+        self.length, self.curvature = float(length), float(curvature)
+        self._setup()
+
+    def _setup(self):
+        b = self.track.base
+        self.free, self.ndof = b.free, b.ndof
+        self._u_free = b.free < b.nu_dof
+        self._theta = 1.0 / max(1, int(np.count_nonzero(self._u_free)))
+        self._rref = float(np.linalg.norm(b.gravity_load[b.free]))
+        tip_nodes = free_edge_nodes(b)
+        tip = 3 * tip_nodes[np.argmin(np.abs(b.nodes[tip_nodes, 1]))] + 2
+        self._tip = int(np.searchsorted(b.free, tip))
+        self._problems = {}
+        self._fixed = None
+        self._last = None
+        self._jacobian_state = None
+
+    # -- the sheet at p ------------------------------------------------------
+    def kappa(self, p):
+        return float(p[0]) if self.parameter_names[0] == "a/R" else self.curvature
+
+    def problem(self, p):
+        L = float(p[0]) if self.parameter_names[0] == "L" else self.length
+        prob = self._problems.get(L)
+        if prob is None:
+            if len(self._problems) > 4:
+                self._problems.clear()
+            prob = self._problems[L] = self.track.at(L)
+        return prob
+
+    def full(self, u, p):
+        """The full state: ``u`` on the free dofs, the clamp values of ``p``."""
+        kappa = self.kappa(p)
+        if self._fixed is None or self._fixed[0] != kappa:
+            w = np.zeros(self.ndof)
+            w[self.track.base.clamp_dofs] = self.track.base.clamp_values(kappa)
+            self._fixed = (kappa, w)
+        w = self._fixed[1].copy()
+        w[self.free] = u
+        return w
+
+    def remesh(self, u, p):
+        """A fresh mesh at the current length; ``u`` interpolated onto it."""
+        old = self.problem(p)
+        w = self.full(u, p)
+        self.track._build(old.sheet)
+        self.track.generation += 1
+        self._setup()
+        return transfer(old, w, self.track.base)[self.free]
+
+    # -- protocol ------------------------------------------------------------
+    def residual(self, u, p):
+        key = (float(p[0]), u.tobytes())
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        r, jmin = self.problem(p).residual(self.full(u, p), 1.0)
+        r = r[self.free] if jmin > 0 else np.full(len(u), np.nan)
+        self._last = (key, r)
+        return r
+
+    def jacobian(self, u, p):
+        w = self.full(u, p)
+        self._jacobian_state = w  # the linear solvers take the state with the matrix
+        return self.problem(p).tangent(w)
+
+    def factorize(self, J):
+        w = self._jacobian_state
+        self.track.solver.factorize(J, w)
+        self.track.generation += 1
+        return _Factorization(self, J, w)
+
+    def current_factorization(self, u, p):
+        """The track solver's present factorisation, taken as the tangent at ``(u, p)``."""
+        return _Factorization(self, None, None)
+
+    def dresidual(self, u, p, i):
+        w = self.full(u, p)
+        prob = self.problem(p)
+        if self.parameter_names[0] == "L":
+            return _residual_rate(prob, w)[self.free]
+        return prob.clamp_coupling(w) @ prob.clamp_rate(self.kappa(p))
+
+    def dual(self, a):
+        c = np.zeros_like(a)
+        c[self._u_free] = self._theta * a[self._u_free]
+        c[self._tip] += a[self._tip]
+        return c
+
+    def residual_norm(self, r):
+        return float(np.linalg.norm(r)) / self._rref
+
+    def correction_norm(self, du):
+        return float(np.abs(du[self._u_free]).max())
+
+    def deflection(self, u, p):
+        return tip_deflection(self.problem(p), self.full(u, p))
 
 
 def _check_common(sheet, hmax, step, tol):
@@ -245,7 +411,7 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     """
     _check_common(sheet, hmax, step, tol)
     stop = check_range("stop", stop, 0.05, 20.0)
-    return _follow(_LengthParameter(), sheet, stop, path=path, hmax=hmax, layers=layers,
+    return _follow("L", sheet, stop, path=path, hmax=hmax, layers=layers,
                    solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
                    progress=progress, on_point=on_point)
 
@@ -272,123 +438,106 @@ def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", 
     """
     _check_common(sheet, hmax, step, tol)
     stop = check_range("stop", stop, 0.0, 2 * np.pi, hi_open=True)
-    return _follow(_CurvatureParameter(sheet.curvature), sheet, stop, path=path, hmax=hmax,
+    return _follow("a/R", sheet, stop, path=path, hmax=hmax,
                    layers=layers, solver=solver, symmetric=symmetric, step=step, tol=tol,
                    jump=jump, progress=progress, on_point=on_point)
 
 
-class _LengthParameter:
-    """The sheet length as continuation parameter (stretched mesh)."""
-
-    name = "L"
-
-    def value(self, problem):
-        return problem.length
-
-    def at(self, track, problem, v):
-        return track.at(v)
-
-    def apply(self, problem, w, v):
-        return w
-
-    def rate(self, problem, w, solver):
-        return _length_tangent(problem, w, solver)
-
-
-class _CurvatureParameter:
-    """The clamp curvature a/R as continuation parameter (clamped values)."""
-
-    name = "a/R"
-
-    def __init__(self, kappa):
-        self.kappa = kappa
-
-    def value(self, problem):
-        return self.kappa
-
-    def at(self, track, problem, v):
-        self.kappa = v
-        return problem
-
-    def apply(self, problem, w, v):
-        w = w.copy()
-        w[problem.clamp_dofs] = problem.clamp_values(v)
-        return w
-
-    def rate(self, problem, w, solver):
-        """``dw/dkappa``: the clamp rate, and ``K dw_f = -K_fc dw_c`` inside."""
-        dw = np.zeros(problem.ndof)
-        dw[problem.clamp_dofs] = problem.clamp_rate(self.kappa)
-        rhs = -(problem.clamp_coupling(w) @ dw[problem.clamp_dofs])
-        dw[problem.free] = solver.solve(rhs)
-        return dw
-
-
-def _follow(param, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
+def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
             progress, on_point=None):
-    """Natural continuation in ``param`` with fold bisection (see :func:`follow_length`)."""
+    """Natural continuation in ``name`` ("L" or "a/R") with fold bisection
+    (see :func:`follow_length`), on the engine's driver
+    :func:`skfem_sheet.engine.natural`: predictor ``dw/dp`` with the last
+    factorisation, the sheet's Newton stopping rule, a step failing when
+    Newton fails, the equilibrium is unstable or the deflection jumps,
+    halved down to the bracket ``2 tol``; in L the mesh is remeshed (and the
+    state transferred) before a step beyond the stretch limit."""
     t0 = time.perf_counter()
     stats = Stats()
-    tight = NewtonOptions()
     track = _Stretched(sheet, hmax, layers, solver, symmetric)
-    problem = track.at(sheet.length)
-    out = follow_path(problem, path, sheet.curvature, track.solver, stats=stats)
+    P = _SheetBranchProblem(track, name, sheet.length, sheet.curvature)
+    counter = Counting(P)
+    p0 = np.array([sheet.length if name == "L" else sheet.curvature])
+    out = follow_path(P.problem(p0), path, sheet.curvature, track.solver, stats=stats)
     if not out.converged:
         raise ParameterError(f"the starting sheet (length {sheet.length:g}, a/R "
                              f"{sheet.curvature:g}) could not be solved along {path}: {out.reason}")
-    w = out.w
-    v = param.value(problem)
-    direction = 1.0 if stop >= v else -1.0
-    st, k = stability(problem, track.solver)
-    points = [BranchPoint(v, tip_deflection(problem, w), st, k, stats.newton_iterations)]
-    if on_point is not None:
-        on_point(problem, w, v)
-    dwdv = param.rate(problem, w, track.solver)
-    h = step
+    track.generation += 1
     guard = 0.25 * max(1.0, sheet.length)
-    fold, bracket, reason = None, (), ""
-    while direction * (stop - v) > 1e-12:
-        v_try = v + direction * min(h, abs(stop - v))
-        if isinstance(param, _LengthParameter) and track.needs_remesh(v_try):
-            moved = track.remesh(problem, w, tight, stats, path)
-            d_here = tip_deflection(*moved) if moved is not None else np.nan
-            if not abs(d_here - points[-1].deflection) <= jump:
-                reason = (f"remeshing at L = {v:.4g} failed" if moved is None else
-                          f"remeshing at L = {v:.4g} landed on another branch "
-                          f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
-                break
-            problem, w = moved
-            dwdv = param.rate(problem, w, track.solver)
-        trial = param.at(track, problem, v_try)
-        w_pred = param.apply(trial, w + (v_try - v) * dwdv, v_try)
-        its0 = stats.newton_iterations
-        res = newton(trial, w_pred, 1.0, track.solver, tight, stats, max_first_increment=guard)
-        why = "" if res.converged else f"Newton: {res.reason}"
-        if res.converged:
-            st, k = stability(trial, track.solver)
-            d_new = tip_deflection(trial, res.w)
-            if st is False:
-                why = f"unstable equilibrium ({k} negative eigenvalues)"
-            elif abs(d_new - points[-1].deflection) > jump:
-                why = f"deflection jumped from {points[-1].deflection:.4g} to {d_new:.4g}"
-        if not why:
-            problem, w, v = trial, res.w, v_try
-            points.append(BranchPoint(float(v), d_new, st, k, stats.newton_iterations - its0))
-            if on_point is not None:
-                on_point(problem, w, v)
-            dwdv = param.rate(problem, w, track.solver)
-            h = min(step, 1.5 * h)
-            if progress is not None:
-                progress(v)
-            continue
-        param.at(track, problem, v)  # back to the last equilibrium
-        if abs(v_try - v) <= 2 * tol + 1e-12:
-            bracket = (v, v_try)
-            fold, reason = 0.5 * (v + v_try), why
-            break
-        h = max(0.5 * abs(v_try - v), tol)  # dwdv (a vector) is still valid
-    return Branch(tuple(points), fold, bracket, reason, stats.newton_iterations,
-                  time.perf_counter() - t0, start_snapped=len(out.snaps) > 0)
+    points, accepted = [], {}
+
+    def check(u, p, res):
+        st, k = _stability_of(res.factorization)
+        d = P.deflection(u, p)
+        accepted[id(res)] = (d, st, k)
+        if st is False:
+            return f"unstable equilibrium ({k} negative eigenvalues)"
+        if abs(d - points[-1].deflection) > jump:
+            return f"deflection jumped from {points[-1].deflection:.4g} to {d:.4g}"
+        return ""
+
+    def on_step(pt, res):
+        if points:
+            d, st, k = accepted.pop(id(res))
+            its = res.stats.factorizations
+        else:
+            st, k = _stability_of(res.factorization)
+            d, its = P.deflection(pt.u, pt.p), stats.newton_iterations
+        accepted.clear()
+        points.append(BranchPoint(float(pt.p[0]), d, st, k, its))
+        if on_point is not None:
+            on_point(P.problem(pt.p), P.full(pt.u, pt.p), float(pt.p[0]))
+
+    def before_step(u, p, value, fact):
+        if name != "L" or not track.needs_remesh(value):
+            return None
+        moved = _remeshed(P, counter, u, p, path, stats)
+        d_here = P.deflection(moved[0], p) if moved is not None else np.nan
+        if not abs(d_here - points[-1].deflection) <= jump:
+            raise EngineFailure(
+                f"remeshing at L = {p[0]:.4g} failed" if moved is None else
+                f"remeshing at L = {p[0]:.4g} landed on another branch "
+                f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
+        return moved
+
+    b = natural(counter, out.w[P.free], p0, 0, stop, step=step, min_step=tol, bracket=2 * tol,
+                tol=_tolerances(guard), locate=False, inertia_change=False, grow_after=None,
+                check=check, before_step=before_step, on_step=on_step, keep_states=False,
+                linearization=_chord_linearization, progress=progress,
+                start=(out.w[P.free], P.current_factorization(out.w[P.free], p0)))
+    fold = None
+    if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
+        fold = 0.5 * (b.bracket[0] + b.bracket[1])
+    nits = stats.newton_iterations + b.stats.factorizations
+    return Branch(tuple(points), fold, tuple(b.bracket) if fold is not None else (), b.reason,
+                  nits, time.perf_counter() - t0, start_snapped=len(out.snaps) > 0)
+
+
+def _stability_of(fact):
+    """``(stable, negative eigenvalues)`` of a factorisation of :class:`_SheetBranchProblem`
+    (seen through the engine's counter)."""
+    return getattr(fact, "fact", fact).stability()
+
+
+def _remeshed(P, counter, u, p, path, stats):
+    """A fresh mesh at the current length: ``(u, factorisation)`` there, or None.
+
+    The state is interpolated onto the new mesh and re-converged (engine
+    corrector).  An interpolated thin-sheet state is not exactly
+    incompressible on the new mesh, and Newton may need many iterations from
+    it; if it fails, the new mesh is solved afresh along the branch's own
+    load path (which selects the same branch inside the bistable range; the
+    caller checks the deflection for continuity).
+    """
+    u_new = P.remesh(u, p)
+    res = correct(counter, u_new, p, _chord_linearization(counter), _tolerances())
+    if res.converged:
+        return res.u, res.factorization
+    out = follow_path(P.problem(p), path, P.kappa(p), P.track.solver, stats=stats)
+    P.track.generation += 1
+    if not out.converged:
+        return None
+    return out.w[P.free], P.current_factorization(out.w[P.free], p)
 
 
 @dataclass(frozen=True)
@@ -573,105 +722,42 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     stats = Stats()
     mid = np.sqrt(sheet.length * stop)
     track = _Stretched(sheet.replace(length=mid), hmax, layers, solver, symmetric)
-    problem = track.at(sheet.length)
-    out = follow_path(problem, "curvature-first", sheet.curvature, track.solver, stats=stats)
+    P = _SheetBranchProblem(track, "L", sheet.length, sheet.curvature)
+    counter = Counting(P)
+    p0 = np.array([sheet.length])
+    out = follow_path(P.problem(p0), "curvature-first", sheet.curvature, track.solver,
+                      stats=stats)
     if not out.converged:
         raise ParameterError(f"the starting sheet could not be solved: {out.reason}")
-    w, L = out.w, sheet.length
-    nu = problem.nu_dof
-    free = problem.free
-    u_free = free < nu
-    theta = 1.0 / np.count_nonzero(u_free)
+    track.generation += 1
+    points, s_hist, tL_hist = [], [], []
 
-    tip_nodes = free_edge_nodes(problem)
-    tip = 3 * tip_nodes[np.argmin(np.abs(problem.nodes[tip_nodes, 1]))] + 2
-    tip_f = int(np.searchsorted(free, tip))  # its position among the free dofs
-
-    def dot(a, b):  # on full-length displacement vectors
-        return theta * float(np.dot(a[:nu], b[:nu])) + float(a[tip] * b[tip])
-    rref = float(np.linalg.norm(problem.gravity_load[free]))
-    opts = NewtonOptions()
-
-    def tangent_at(prob, w, prev=None):
-        b = np.zeros(problem.ndof)
-        b[free] = track.solver.solve(_residual_rate(prob, w)[free])
-        t_w, t_L = -b, 1.0
-        n = np.sqrt(dot(t_w, t_w) + t_L**2)
-        t_w, t_L = t_w / n, t_L / n
-        if prev is not None and (dot(t_w, prev[0]) + t_L * prev[1]) < 0:
-            t_w, t_L = -t_w, -t_L
-        return t_w, t_L
-
-    st, k = stability(problem, track.solver)
-    points = [BranchPoint(L, tip_deflection(problem, w), st, k, 0)]
-    if on_point is not None:
-        on_point(problem, w, L)
-    tL_hist, s_hist, s = [], [], 0.0
-    t = tangent_at(problem, w)
-    tL_hist.append(t[1])
-    s_hist.append(0.0)
-    h, message, converged = ds, "", False
-    while len(points) < max_points:
-        t_w, t_L = t
-        w_p = w + h * t_w
-        L_p = L + h * t_L
-        ok, its = False, 0
-        wk, Lk = w_p.copy(), L_p
-        for its in range(1, opts.max_iterations + 1):  # noqa: B007 (its is read after the loop)
-            prob = track.at(Lk)
-            r, Jmin = timed(stats, "assembly_s", prob.residual, wk, 1.0)
-            if not Jmin > 0:
-                break
-            N = dot(t_w, wk - w) + t_L * (Lk - L) - h
-            rn = float(np.linalg.norm(r[free]))
-            K = timed(stats, "assembly_s", prob.tangent, wk)
-            try:
-                timed(stats, "linear_solve_s", track.solver.factorize, K, wk)
-            except LinearSolverError:
-                break
-            stats.factorizations += 1
-            stats.newton_iterations += 1
-            rate = timed(stats, "assembly_s", _residual_rate, prob, wk)
-            a = timed(stats, "linear_solve_s", track.solver.solve, -r[free])
-            b = timed(stats, "linear_solve_s", track.solver.solve, rate[free])
-            tf = t_w[free]
-            ta = theta * float(np.dot(tf[u_free], a[u_free])) + tf[tip_f] * a[tip_f]
-            tb = theta * float(np.dot(tf[u_free], b[u_free])) + tf[tip_f] * b[tip_f]
-            dL = (-N - ta) / (t_L - tb)
-            dw = a - dL * b
-            wk[free] += dw
-            Lk += dL
-            if rn <= opts.rtol * rref and max(np.abs(dw[u_free]).max(), abs(dL)) <= opts.utol:
-                ok = True
-                break
-            if max(np.abs(dw[u_free]).max(), abs(dL)) > 0.5:
-                break
-        if not ok:
-            h *= 0.5
-            if h < 1e-3:
-                message = f"arclength step below 1e-3 at L = {L:.4g}"
-                break
-            continue
-        # accept: the factorisation is at (almost) the new point
-        prob = track.at(Lk)
-        w, L = wk, Lk
-        s += h
-        st, k = stability(prob, track.solver)
-        points.append(BranchPoint(float(L), tip_deflection(prob, w), st, k, its))
+    def on_step(pt, res):
+        st, k = _stability_of(res.factorization)
+        L = float(pt.p[0])
+        points.append(BranchPoint(L, P.deflection(pt.u, pt.p), st, k,
+                                  res.iterations if points else 0))
+        s_hist.append(pt.s)
+        tL_hist.append(pt.tangent_p)
         if on_point is not None:
-            on_point(prob, w, L)
-        t = tangent_at(prob, w, prev=t)
-        tL_hist.append(t[1])
-        s_hist.append(s)
-        if progress is not None:
-            progress(L)
-        h = min(ds_max, h * (1.5 if its <= 3 else 1.0))
-        if L > stop:
-            converged = True
-            break
+            on_point(P.problem(pt.p), P.full(pt.u, pt.p), L)
+
+    u0 = out.w[P.free]
+    b = arclength(counter, u0, p0, 0, (0.0, stop), ds=ds, ds_min=min(1e-3, ds),
+                  ds_max=max(ds_max, ds), tol=_ARCLENGTH_TOLERANCES, max_points=max_points, locate=False,
+                  keep_states=False, progress=progress, on_step=on_step,
+                  start=(u0, P.current_factorization(u0, p0)))
+    message = "" if b.completed else b.reason
     folds = _turning_points(np.array(s_hist), np.array(tL_hist), points)
-    return SCurve(tuple(points), tuple(folds), converged, message, stats.newton_iterations,
-                  time.perf_counter() - t0)
+    return SCurve(tuple(points), tuple(folds), b.completed, message,
+                  stats.newton_iterations + b.stats.factorizations, time.perf_counter() - t0)
+
+
+#: The S-curve's corrector: the sheet's tolerances, a full Newton step at every
+#: iterate of the bordered system, no first correction beyond 0.5 a.
+_ARCLENGTH_TOLERANCES = Tolerances(rtol=_OPTIONS.rtol, utol=_OPTIONS.utol,
+                                   max_iterations=_OPTIONS.max_iterations,
+                                   max_halvings=_OPTIONS.max_halvings, max_correction=0.5)
 
 
 def _turning_points(s, tL, points):

@@ -54,6 +54,9 @@ class BranchPoint:
         Newton iterations (factorisations) of its correction.
     tangent_p : float
         Parameter component of the unit tangent (arclength), or 1 (natural).
+    s : float
+        Arclength from the first point (arclength; natural: the distance
+        travelled in the parameter).
     """
 
     p: np.ndarray
@@ -61,6 +64,7 @@ class BranchPoint:
     negative_eigenvalues: object = None
     iterations: int = 0
     tangent_p: float = 1.0
+    s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -103,15 +107,27 @@ class Branch:
         return self.folds[0] if self.folds else None
 
 
-def _start(counter, u0, p0, tol):
-    res = correct(counter, u0, p0, plain_linearization(counter), tol)
-    return res
+def _start(counter, u0, p0, tol, linearization=None, start=None):
+    """The first point: corrected at fixed parameters, or ``start`` (an
+    already converged point ``(u, factorization)``, taken as it is)."""
+    if start is not None:
+        u, fact = start
+        return NewtonResult(np.array(u, dtype=float), np.array(p0, dtype=float), True, 0, "",
+                            (), fact, Stats())
+    lin = plain_linearization(counter) if linearization is None else linearization(counter)
+    return correct(counter, u0, p0, lin, tol)
+
+
+def _without_state(pt):
+    return BranchPoint(pt.p, None, pt.negative_eigenvalues, pt.iterations, pt.tangent_p, pt.s)
 
 
 def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float = 1e-4,
             max_step=None, tol: Tolerances = DEFAULT_TOLERANCES, jump=np.inf, locate: bool = True,
             check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
-            progress=None) -> Branch:
+            progress=None, growth: float = 1.5, grow_after=3, bracket=None,
+            inertia_change: bool = True, check=None, before_step=None, on_step=None,
+            linearization=None, start=None) -> Branch:
     """Natural continuation in one parameter with fold detection and location.
 
     Parameters
@@ -136,6 +152,35 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     keep_states : bool
         Keep the state of every point (else only of the last).
     progress : callable(value) or None
+    growth : float
+        Factor by which a step grows after an accepted point ...
+    grow_after : int or None
+        ... whose correction took at most this many iterations (None: always).
+    bracket : float or None
+        The branch is lost (bisection ended) when a failed step is no longer
+        than this (default ``min_step``): ``Branch.bracket`` is then the last
+        value on the branch and the failed one.
+    inertia_change : bool
+        A step whose tangent has another inertia than the last point's fails.
+    check : callable(u, p, result) -> str, optional
+        Further acceptance test of a converged step (``result`` its
+        :class:`~skfem_sheet.engine.corrector.NewtonResult`): a non-empty
+        string rejects the step, with that reason.
+    before_step : callable(u, p, value, factorization) -> None or (u, factorization)
+        Called before each step to ``value`` (e.g. to remesh the problem):
+        a pair replaces the current state and its factorised tangent (same
+        parameters); raising :class:`EngineFailure` ends the branch with its
+        message as ``reason``.
+    on_step : callable(point, result), optional
+        Called with every point of the branch (the first included) as it is
+        accepted, and the corrector's result (e.g. to write a series).
+    linearization : callable(counter) -> linearize, optional
+        The corrector's linearisation (see
+        :func:`~skfem_sheet.engine.corrector.correct`), made afresh for every
+        correction; default a full Newton step at every iterate.
+    start : (u, factorization), optional
+        The first point is already converged at ``p0``: take ``u`` as it is,
+        with this factorised tangent at (or near) it.
 
     Returns
     -------
@@ -159,45 +204,63 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     step = check_range("step", step, 0, None, lo_open=True)
     min_step = check_range("min_step", min_step, 0, step, lo_open=True)
     max_step = step if max_step is None else check_range("max_step", max_step, step, None)
+    growth = check_range("growth", growth, 1.0, None)
+    end_at = min_step if bracket is None else check_range("bracket", bracket, min_step, None)
     direction = 1.0 if stop >= p[i] else -1.0
 
     def finish(points, folds=(), completed=False, reason="", bracket=()):
         return Branch(tuple(points), i, tuple(folds), completed, reason, bracket,
                       counter.stats() - start_stats)
 
-    res = _start(counter, u0, p, tol)
+    res = _start(counter, u0, p, tol, linearization, start)
     if not res.converged:
         return finish([], reason=f"the first point did not converge: {res.reason}")
     u, p, fact = res.u, res.p, res.factorization
     k = fact.inertia()
     points = [BranchPoint(p.copy(), u, k, res.iterations)]
+    if on_step is not None:
+        on_step(points[-1], res)
+    lin = _fixed if linearization is None else linearization
     h = step
+    dudp = None
     while (stop - p[i]) * direction > 1e-14 and len(points) < max_points:
-        try:
-            dudp = fact.solve(-counter.dresidual(u, p, i))
-        except EngineFailure as err:
-            return finish(points, reason=f"tangent: {err}")
         lam_try = p[i] + direction * min(h, abs(stop - p[i]))
+        try:
+            if before_step is not None:
+                moved = before_step(u, p, lam_try, fact)
+                if moved is not None:
+                    u, fact = moved
+                    dudp = None
+            if dudp is None:  # at a new point (kept through failed steps)
+                dudp = fact.solve(-counter.dresidual(u, p, i))
+        except EngineFailure as err:
+            return finish(points, reason=str(err) or "tangent failed")
         pt = p.copy()
         pt[i] = lam_try
         u_pred = u + (lam_try - p[i]) * dudp
-        res = correct(counter, u_pred, pt, _fixed(counter), tol)
+        res = correct(counter, u_pred, pt, lin(counter), tol)
         why = "" if res.converged else f"Newton: {res.reason}"
         if res.converged:
             k_new = res.factorization.inertia()
             if counter.correction_norm(res.u - u_pred) > jump:
                 why = "the state jumped (another branch)"
-            elif k is not None and k_new is not None and k_new != k:
+            elif (inertia_change and k is not None and k_new is not None and k_new != k):
                 why = f"the inertia changed from {k} to {k_new}"
+            elif check is not None:
+                why = check(res.u, res.p, res)
         if not why:
+            s = points[-1].s + abs(lam_try - p[i])
             u, p, fact, k = res.u, res.p, res.factorization, k_new
+            dudp = None
             if not keep_states:
-                points[-1] = BranchPoint(points[-1].p, None, points[-1].negative_eigenvalues,
-                                         points[-1].iterations)
-            points.append(BranchPoint(p.copy(), u, k, res.iterations))
+                points[-1] = _without_state(points[-1])
+            points.append(BranchPoint(p.copy(), u, k, res.iterations, 1.0, s))
+            if on_step is not None:
+                on_step(points[-1], res)
             if progress is not None:
                 progress(float(p[i]))
-            h = min(max_step, h * (1.5 if res.iterations <= 3 else 1.0))
+            grow = grow_after is None or res.iterations <= grow_after
+            h = min(max_step, h * (growth if grow else 1.0))
             continue
         if locate:
             fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
@@ -210,8 +273,9 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
                     and fold.side != direction):
                 return finish(points, [fold], reason=f"fold at {fold.value:.10g} ({why})",
                               bracket=(float(p[i]), float(lam_try)))
-        if abs(lam_try - p[i]) <= min_step * (1 + 1e-9):
-            return finish(points, reason=f"step below min_step ({why})",
+        if abs(lam_try - p[i]) <= end_at * (1 + 1e-9):
+            return finish(points, reason=(f"step below min_step ({why})" if bracket is None
+                                          else why),
                           bracket=(float(p[i]), float(lam_try)))
         h = max(0.5 * abs(lam_try - p[i]), min_step)
     return finish(points, completed=(stop - p[i]) * direction <= 1e-14,
@@ -312,7 +376,7 @@ def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
-              keep_states: bool = True, progress=None) -> Branch:
+              keep_states: bool = True, progress=None, on_step=None, start=None) -> Branch:
     """Pseudo-arclength continuation in one parameter, through folds.
 
     Parameters
@@ -333,6 +397,12 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         Locate every fold met (sign change of ``t_p``).
     keep_states : bool
         Keep the state of every point.
+    on_step : callable(point, result), optional
+        Called with every point (the first included) as it is accepted, and
+        the corrector's result; ``point.s`` is its arclength from the first.
+    start : (u, factorization), optional
+        The first point is already converged at ``p0``: take ``u`` as it is,
+        with this factorised tangent at (or near) it.
 
     Returns
     -------
@@ -365,7 +435,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         return Branch(tuple(points), i, tuple(folds), completed, reason, (),
                       counter.stats() - start_stats)
 
-    res = _start(counter, u0, p, tol)
+    res = _start(counter, u0, p, tol, start=start)
     if not res.converged:
         return finish([], [], reason=f"the first point did not converge: {res.reason}")
     u, p, fact = res.u, res.p, res.factorization
@@ -376,6 +446,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     if t[1] * direction < 0:
         t = (-t[0], -t[1])
     points = [BranchPoint(p.copy(), u, fact.inertia(), res.iterations, t[1])]
+    if on_step is not None:
+        on_step(points[-1], res)
     folds = []
     h = ds
     while len(points) < max_points:
@@ -393,9 +465,9 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         k_new = res.factorization.inertia()
         prev_point = points[-1]
         if not keep_states:
-            points[-1] = BranchPoint(prev_point.p, None, prev_point.negative_eigenvalues,
-                                     prev_point.iterations, prev_point.tangent_p)
-        new_point = BranchPoint(res.p.copy(), res.u, k_new, res.iterations, t_new[1])
+            points[-1] = _without_state(prev_point)
+        new_point = BranchPoint(res.p.copy(), res.u, k_new, res.iterations, t_new[1],
+                                prev_point.s + h)
         if locate and np.sign(t_new[1]) != np.sign(t[1]):
             # a fold between the points: start from the one nearer to it
             near_u, near_p, near_t = ((u, p, t) if abs(t[1]) < abs(t_new[1])
@@ -407,6 +479,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
             if fold is not None:
                 folds.append(fold)
         points.append(new_point)
+        if on_step is not None:
+            on_step(new_point, res)
         u, p, t = res.u, res.p, t_new
         if progress is not None:
             progress(float(p[i]))
