@@ -15,6 +15,13 @@ carries the nodal solution from one length to the next; beyond a stretch of
 1.35 the sheet is remeshed at the current length and the solution is
 interpolated onto the new mesh (:func:`transfer`).
 
+Every continuation here runs on the engine's drivers
+(:func:`skfem_sheet.engine.natural`, :func:`skfem_sheet.engine.arclength`),
+with the sheet adapted to the engine's problem protocol by
+:class:`_SheetBranchProblem` (one parameter, L or a/R, on a stretched and
+remeshed mesh) and corrected with the sheet's Newton stopping rule
+(:func:`_chord_linearization`).
+
 Functions
 ---------
 :func:`follow_length`
@@ -621,18 +628,20 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
                  modulus=modulus)
     _check_common(base, hmax, step, tol)
     bars = _bars(progress, lo, hi)
-    up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
-                       solver=solver, step=step, tol=tol, progress=bars[0],
-                       on_point=on_point[0])
-    if base.curvature == 0.0:
-        down = up  # a flat clamp: both load paths are one problem, with one branch
-    else:
-        down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
-                             layers=layers, solver=solver, step=step, tol=tol,
-                             progress=bars[1], on_point=on_point[1])
-    for b in bars:
-        if b is not None:
-            b.close()
+    try:
+        up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
+                           solver=solver, step=step, tol=tol, progress=bars[0],
+                           on_point=on_point[0])
+        if base.curvature == 0.0:
+            down = up  # a flat clamp: both load paths are one problem, with one branch
+        else:
+            down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
+                                 layers=layers, solver=solver, step=step, tol=tol,
+                                 progress=bars[1], on_point=on_point[1])
+    finally:  # also when a continuation raises: no bar left open on the terminal
+        for b in bars:
+            if b is not None:
+                b.close()
     # a branch missing where it starts (its path snapped there) has no fold of its own
     L1 = None if up.start_snapped else up.fold
     L0 = None if down.start_snapped else down.fold
@@ -702,12 +711,12 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     of the tip's centre (so that steps are even along the plotted curve
     d(L)) plus the root-mean-square of all displacements (``theta = 1 /
     number of displacement unknowns``), all in units of a; the pressures
-    are left out of the norm.  Each corrector
-    iteration solves the bordered system with two back-substitutions of the
-    tangent (bordering algorithm), which stays usable through the fold where
-    the tangent alone is singular.  Turning points are located where ``t_L``
-    changes sign, by the vertex of the parabola ``L(s)`` through the three
-    points around it.
+    are left out of the norm.  The continuation is the engine's
+    (:func:`skfem_sheet.engine.arclength`): each corrector iteration solves
+    the bordered system by block elimination with the one factorisation of
+    the tangent, which stays usable through the fold where the tangent alone
+    is singular.  Turning points are located where ``t_L`` changes sign, by
+    the vertex of the parabola ``L(s)`` through the three points around it.
 
     One mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop``
     must be within a factor 1.8 of each other.  ``on_point(problem, w, L)``,
