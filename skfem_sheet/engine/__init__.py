@@ -14,11 +14,12 @@ Modules
 :mod:`.fold`
     the minimally augmented test function and fold location (:func:`locate_fold`);
 :mod:`.branch`
-    natural (:func:`natural`) and pseudo-arclength (:func:`arclength`) continuation;
+    natural (:func:`natural`) and pseudo-arclength (:func:`arclength`) continuation,
+    and sweeps through prescribed values (:func:`sweep`);
 :mod:`.curves`
     fold curves in two parameters and cusps on them (:func:`fold_curve`).
 """
-from .branch import Branch, BranchPoint, arclength, natural
+from .branch import Branch, BranchPoint, arclength, natural, sweep
 from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
 from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
 from .fold import FoldPoint, fold_test, locate_fold
@@ -54,4 +55,5 @@ __all__ = [
                        "locate_fold",
                        "natural",
                        "newton",
+                       "sweep",
 ]

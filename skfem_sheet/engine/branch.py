@@ -35,7 +35,7 @@ from .corrector import (
 from .fold import FoldSystem, fold_point, locate_fold
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
-__all__ = ["Branch", "BranchPoint", "arclength", "natural"]
+__all__ = ["Branch", "BranchPoint", "arclength", "natural", "sweep"]
 
 
 @dataclass(frozen=True)
@@ -114,8 +114,15 @@ def _start(counter, u0, p0, tol, linearization=None, start=None):
         u, fact = start
         return NewtonResult(np.array(u, dtype=float), np.array(p0, dtype=float), True, 0, "",
                             (), fact, Stats())
+    return _correct(counter, u0, p0, tol, linearization)
+
+
+def _correct(counter, u, p, tol, linearization=None):
+    """One corrector run with the linearisation made by ``linearization(counter)``
+    (a ``linearize``, or a pair ``(linearize, admissible)``; default full Newton)."""
     lin = plain_linearization(counter) if linearization is None else linearization(counter)
-    return correct(counter, u0, p0, lin, tol)
+    linearize, admissible = lin if isinstance(lin, tuple) else (lin, None)
+    return correct(counter, u, p, linearize, tol, admissible)
 
 
 def _without_state(pt):
@@ -174,8 +181,8 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     on_step : callable(point, result), optional
         Called with every point of the branch (the first included) as it is
         accepted, and the corrector's result (e.g. to write a series).
-    linearization : callable(counter) -> linearize, optional
-        The corrector's linearisation (see
+    linearization : callable(counter) -> linearize or (linearize, admissible), optional
+        The corrector's linearisation and trial test (see
         :func:`~skfem_sheet.engine.corrector.correct`), made afresh for every
         correction; default a full Newton step at every iterate.
     start : (u, factorization), optional
@@ -220,7 +227,6 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     points = [BranchPoint(p.copy(), u, k, res.iterations)]
     if on_step is not None:
         on_step(points[-1], res)
-    lin = _fixed if linearization is None else linearization
     h = step
     dudp = None
     while (stop - p[i]) * direction > 1e-14 and len(points) < max_points:
@@ -238,7 +244,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         pt = p.copy()
         pt[i] = lam_try
         u_pred = u + (lam_try - p[i]) * dudp
-        res = correct(counter, u_pred, pt, lin(counter), tol)
+        res = _correct(counter, u_pred, pt, tol, linearization)
         why = "" if res.converged else f"Newton: {res.reason}"
         if res.converged:
             k_new = res.factorization.inertia()
@@ -282,8 +288,73 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
                   reason="" if (stop - p[i]) * direction <= 1e-14 else "max_points")
 
 
-def _fixed(counter):
-    return plain_linearization(counter)
+def sweep(problem, u0, p0, param, values, *, tol: Tolerances = DEFAULT_TOLERANCES,
+          linearization=None, predict: bool = False, revise=None) -> tuple:
+    """Continuation through prescribed values of one parameter (no step control).
+
+    The first value is corrected from ``u0``, every next one from the last
+    converged state (predicted along the tangent ``du/dp`` if ``predict``).
+    A correction that fails is kept (``converged=False``) and the next value
+    starts again from the last converged state, so that a sweep through a
+    fold reports where it failed, or -- for a descent method such as the
+    ribbon model's -- lands on the branch that still exists (the jump) and
+    goes on from there.
+
+    Parameters
+    ----------
+    problem : Problem
+    u0, p0 : ndarray
+        Initial guess for the first value, and the other parameters.
+    param : int or str
+    values : sequence of float
+        The values of ``p[param]``, in order.
+    tol : Tolerances
+    linearization : callable(counter) -> linearize or (linearize, admissible), optional
+        As in :func:`natural`.
+    predict : bool
+        Predict along the tangent (one back-substitution) instead of starting
+        from the last state as it is.
+    revise : callable(k, value, result, last) -> result, optional
+        May replace the result of the ``k``-th value (e.g. by re-doing the
+        step in sub-steps); ``last`` is the last converged result before it
+        (None for the first value).
+
+    Returns
+    -------
+    tuple of NewtonResult
+        One per value, in order.
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - u + p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - 1), ("lam",))
+    >>> out = sweep(P, np.array([1.0]), np.array([0.0]), 0, [0.1, 0.2, 0.3])
+    >>> [bool(r.converged) for r in out], round(float(out[-1].u[0]), 6)
+    ([True, True, True], 0.786483)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    p = np.array(p0, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    u = np.array(u0, dtype=float)
+    last, out = None, []
+    for k, value in enumerate(values):
+        pt = p.copy()
+        pt[i] = float(value)
+        guess = u
+        if predict and last is not None and last.factorization is not None:
+            try:
+                guess = u + (pt[i] - p[i]) * last.factorization.solve(
+                    -counter.dresidual(u, p, i))
+            except EngineFailure:
+                guess = u
+        res = _correct(counter, guess, pt, tol, linearization)
+        if revise is not None:
+            res = revise(k, float(value), res, last)
+        out.append(res)
+        if res.converged:
+            u, p, last = res.u, res.p, res
+    return tuple(out)
 
 
 def _unit_tangent(counter, t_u, t_p, prev=None):

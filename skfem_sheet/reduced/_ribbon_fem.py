@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
+from skfem_sheet.engine import Problem, Tolerances, correct
+from skfem_sheet.engine.protocol import Counting
 from skfem_sheet.reduced._ribbon_kernels import energy_density, energy_derivatives
 
 __all__ = ["Mesh", "make_mesh", "Operators", "make_operators", "total_energy",
@@ -146,31 +148,145 @@ def _factor(H):
             tau *= 10.0
 
 
+class _ShiftedCholesky:
+    """A (shifted) Cholesky factorisation of the reduced Hessian."""
+
+    def __init__(self, H):
+        self.factor, self.positive_definite = _factor(H)
+
+    def solve(self, b):
+        return cho_solve(self.factor, b)
+
+    def inertia(self):
+        return 0 if self.positive_definite else None
+
+
+class EnergyProblem(Problem):
+    """Minimising the ribbon's energy over the ``free`` dofs, as an engine problem.
+
+    The state ``u`` is ``x[free]``; the other dofs keep the values of
+    ``fixed(p)``.  The residual is the energy gradient of ``operators(p)``,
+    the jacobian its Hessian, factorised by a Cholesky shifted until positive
+    definite (a descent direction also where the Hessian is indefinite).
+    Subclasses give the parameters a meaning (:class:`RibbonProblem` in
+    :mod:`skfem_sheet.reduced.ribbon`: length, clamp curvature, gravity); on
+    its own (``p`` empty) it is one minimisation (:func:`minimise`).
+    """
+
+    def __init__(self, free, ops: Operators = None, x_fixed=None, xtol=1e-10):
+        self.free, self.xtol = np.asarray(free, bool), float(xtol)
+        self._ops = ops
+        self._x_fixed = None if x_fixed is None else np.array(x_fixed, dtype=float)
+        self.scale = 1.0  # max(1, |x|_inf) at the iterate last linearised
+
+    def operators(self, p) -> Operators:
+        return self._ops
+
+    def fixed(self, p):
+        """Full dof vector carrying the fixed values at ``p``."""
+        return self._x_fixed
+
+    def full(self, u, p):
+        x = self.fixed(p).copy()
+        x[self.free] = u
+        return x
+
+    def energy(self, u, p):
+        return total_energy(self.operators(p), self.full(u, p))
+
+    def derivatives(self, u, p):
+        """Energy, reduced gradient and reduced Hessian (one assembly)."""
+        E, g, H = energy_gradient_hessian(self.operators(p), self.full(u, p))
+        return E, g[self.free], H[np.ix_(self.free, self.free)]
+
+    def residual(self, u, p):
+        return self.derivatives(u, p)[1]
+
+    def jacobian(self, u, p):
+        return self.derivatives(u, p)[2]
+
+    def factorize(self, J):
+        return _ShiftedCholesky(J)
+
+    def correction_norm(self, du):
+        """``r / (r + xtol)``, ``r = |du|_inf / max(1, |x|_inf)`` (see :func:`energy_descent`)."""
+        r = (float(np.max(np.abs(du))) if du.size else 0.0) / self.scale
+        return r / (r + self.xtol)
+
+
+def descent_tolerances(max_iter=100):
+    """The corrector's limits for :func:`energy_descent` (its stopping rule is
+    in the residual and correction measures; see there)."""
+    return Tolerances(rtol=0.5, utol=0.5, max_iterations=max_iter, max_halvings=33)
+
+
+def energy_descent(counter):
+    """The linearisation and trial test of Newton's method with a line search
+    on the energy, for :func:`skfem_sheet.engine.correct` on an
+    :class:`EnergyProblem` (``counter`` the engine's counted view of it).
+
+    At each iterate: the Newton direction with the shifted Cholesky of the
+    Hessian; converged when the Hessian is positive definite and the
+    correction is below ``xtol max(1, |x|_inf)``.  A trial point ``u + t du``
+    (``t = 1, 1/2, ..., 2^-33``) is admissible when its energy is finite and
+    meets the Armijo condition ``E(u + t du) <= E(u) + 1e-4 t g.du`` (or the
+    correction is already below 1e-6 at a positive definite Hessian).  The
+    corrector's residual and correction measures make its stopping rule
+    exactly this one: the residual measure is 0 at a positive definite
+    Hessian (1 otherwise; ``rtol = 1/2``), the correction measure is
+    ``r / (r + xtol)`` with ``r = |du|_inf / max(1, |x|_inf)`` (below
+    ``utol = 1/2`` iff ``r < xtol``, and bounded: a line-search Newton has no
+    divergence test).  ``result.extra`` is whether the last Hessian was
+    positive definite.
+
+    Returns
+    -------
+    (linearize, admissible)
+    """
+    P = counter.problem
+    state = {}
+
+    def linearize(u, p):
+        E, g, H = P.derivatives(u, p)
+        counter.r += 1
+        counter.j += 1
+        fact = counter.factorize(H)
+        du = -fact.solve(g)
+        pd = fact.inertia() == 0
+        size = float(np.max(np.abs(du))) if du.size else 0.0
+        P.scale = max(1.0, float(np.max(np.abs(P.full(u, p)))))
+        state.update(E=E, slope=float(g @ du), pd=pd, size=size, k=0)
+        return (0.0 if pd else 1.0), du, np.zeros_like(p), fact, pd
+
+    def admissible(ut, pt):
+        t = 0.5 ** state["k"]
+        state["k"] += 1
+        Et = P.energy(np.asarray(ut), pt)
+        return bool(np.isfinite(Et) and (Et <= state["E"] + 1e-4 * t * state["slope"]
+                                         or (state["pd"] and state["size"] < 1e-6)))
+    return linearize, admissible
+
+
+def outcome(P: EnergyProblem, res):
+    """``(x, converged, stable, iterations)`` of a corrector result on ``P``."""
+    x = P.full(res.u, res.p)
+    if res.converged:
+        return x, True, True, res.iterations
+    return x, False, bool(res.extra) and res.reason != "max iterations", res.iterations
+
+
 def minimise(ops: Operators, x0, free, max_iter=100, xtol=1e-10):
     """Newton's method with line search for a local minimum of E over ``free`` dofs.
 
-    Returns ``(x, converged, stable, iterations)``; ``stable`` is True when the
-    reduced Hessian at the solution is positive definite (a local minimum).
+    Runs on the engine's corrector (:func:`skfem_sheet.engine.correct`) with
+    the problem :class:`EnergyProblem` and the linearisation of
+    :func:`energy_descent`.  Returns ``(x, converged, stable, iterations)``;
+    ``stable`` is True when the reduced Hessian at the solution is positive
+    definite (a local minimum).
     """
-    x = np.array(x0, dtype=float)
-    for it in range(1, max_iter + 1):
-        E, g, H = energy_gradient_hessian(ops, x)
-        gf, Hf = g[free], H[np.ix_(free, free)]
-        fac, pd = _factor(Hf)
-        dx = -cho_solve(fac, gf)
-        size = np.max(np.abs(dx))
-        if pd and size < xtol * max(1.0, np.max(np.abs(x))):
-            x[free] += dx
-            return x, True, True, it
-        t, slope = 1.0, float(gf @ dx)
-        while t > 1e-10:
-            trial = x.copy()
-            trial[free] += t * dx
-            Et = total_energy(ops, trial)
-            if np.isfinite(Et) and (Et <= E + 1e-4 * t * slope or (pd and size < 1e-6)):
-                break
-            t *= 0.5
-        else:
-            return x, False, pd, it
-        x = trial
-    return x, False, False, max_iter
+    P = EnergyProblem(free, ops, x0, xtol)
+    counter = Counting(P)
+    linearize, admissible = energy_descent(counter)
+    res = correct(counter, np.array(x0, dtype=float)[P.free], np.zeros(0), linearize,
+                  descent_tolerances(max_iter), admissible)
+    return outcome(P, res)

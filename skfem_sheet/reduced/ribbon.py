@@ -97,9 +97,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from skfem_sheet.engine import sweep
 from skfem_sheet.params import ParameterError, Sheet, check_range
 from skfem_sheet.reduced._common import POISSON_RATIO, as_sheet, weight_per_area
-from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
+from skfem_sheet.reduced._ribbon_fem import (
+    EnergyProblem,
+    descent_tolerances,
+    energy_descent,
+    make_mesh,
+    make_operators,
+    outcome,
+)
 from skfem_sheet.reduced._ribbon_kernels import energy_terms as _energy_term_densities
 
 __all__ = [
@@ -241,18 +249,62 @@ def _moduli(sheet: Sheet):
     return sheet.stretching_modulus, sheet.bending_modulus, POISSON_RATIO
 
 
-def _solve_at(sheet, mesh, x0, impose_flat, gravity_scale=1.0, max_iter=100):
-    Y, D, nu = _moduli(sheet)
-    ops = make_operators(mesh, sheet.extent, sheet.tip_width, weight_per_area(sheet),
-                         Y, D, nu, gravity_scale, _planform_profile(sheet))
-    free = _free_mask(mesh.n_elements + 1, impose_flat)
-    x0 = np.array(x0, dtype=float)
-    if not impose_flat:
-        x0[0] = sheet.curvature
-    x0[1] = 0.0
-    x0[2] = 0.0
-    x, conv, stable, its = minimise(ops, x0, free, max_iter=max_iter)
-    return ops, x, conv, stable, its
+class RibbonProblem(EnergyProblem):
+    """The ribbon model of a sheet as an engine problem in ``p = (L, a/R, g)``.
+
+    ``g`` scales gravity (the load ramps); the state is the free dofs of the
+    dof vector on the S = s/L grid (:func:`_free_mask`), the clamp values
+    ``c(0) = a/R`` (0 with ``impose_flat``), ``c'(0) = Phi(0) = 0``.  Its
+    corrector is Newton's method with a line search on the energy
+    (:func:`skfem_sheet.reduced._ribbon_fem.energy_descent`), its
+    continuations sweeps through prescribed values
+    (:func:`skfem_sheet.engine.sweep`).
+    """
+
+    parameter_names = ("L", "a/R", "g")
+
+    def __init__(self, template, mesh, impose_flat):
+        super().__init__(_free_mask(mesh.n_elements + 1, impose_flat))
+        self.template, self.mesh, self.impose_flat = template, mesh, bool(impose_flat)
+        self._cache = {}
+
+    def sheet(self, p):
+        return self.template.replace(length=float(p[0]), curvature=float(p[1]))
+
+    def operators(self, p):
+        key = (float(p[0]), float(p[2]))
+        ops = self._cache.get(key)
+        if ops is None:
+            if len(self._cache) > 8:
+                self._cache.clear()
+            sheet = self.template.replace(length=key[0])
+            Y, D, nu = _moduli(sheet)
+            ops = self._cache[key] = make_operators(
+                self.mesh, sheet.extent, sheet.tip_width, weight_per_area(sheet), Y, D, nu,
+                key[1], _planform_profile(sheet))
+        return ops
+
+    def fixed(self, p):
+        x = np.zeros(4 * (self.mesh.n_elements + 1))
+        if not self.impose_flat:
+            x[0] = float(p[1])
+        return x
+
+    def result(self, res) -> RibbonResult:
+        """The :class:`RibbonResult` of a corrector result."""
+        sheet = self.template.replace(length=float(res.p[0]))
+        x, conv, stable, its = outcome(self, res)
+        return _result(sheet, self.mesh, self.operators(res.p), x, conv, stable, its)
+
+
+def _params(sheet, gravity_scale=1.0):
+    return np.array([sheet.length, sheet.curvature, gravity_scale])
+
+
+def _sweep(P, x0, p0, param, values, revise=None):
+    """:func:`skfem_sheet.engine.sweep` of ``P`` from the dof vector ``x0``."""
+    return sweep(P, np.asarray(x0, dtype=float)[P.free], p0, param, values,
+                 tol=descent_tolerances(), linearization=energy_descent, revise=revise)
 
 
 def _result(sheet, mesh, ops, x, conv, stable, its):
@@ -267,18 +319,19 @@ def _result(sheet, mesh, ops, x, conv, stable, its):
 def _gravity_first(sheet, mesh, impose_flat, n_ramp=10):
     """Load first, then clamp curvature (the paper's FE protocol for the gravity branch).
 
-    The hanging sheet is solved with a flat clamp, then the clamp curvature is
-    raised to 1/R in ``n_ramp`` steps, each starting from the previous state.
+    The hanging sheet is solved with a flat clamp (gravity ramped in four
+    steps), then the clamp curvature is raised to 1/R in ``n_ramp`` steps,
+    each starting from the previous state: two sweeps.
     """
-    x = _clamped_state(mesh.n_elements + 1, 0.0, True)
-    for lam in (0.25, 0.5, 0.75, 1.0):
-        _, x, _, _, _ = _solve_at(sheet, mesh, x, True, lam)
+    flat = RibbonProblem(sheet, mesh, True)
+    hang = _sweep(flat, _clamped_state(mesh.n_elements + 1, 0.0, True), _params(sheet), "g",
+                  (0.25, 0.5, 0.75, 1.0))
+    x = flat.full(hang[-1].u, hang[-1].p)
+    P = RibbonProblem(sheet, mesh, impose_flat)
     if impose_flat or sheet.curvature == 0.0:
-        return _solve_at(sheet, mesh, x, impose_flat)
-    for kappa in sheet.curvature * np.arange(1, n_ramp + 1) / n_ramp:
-        out = _solve_at(sheet.replace(curvature=kappa), mesh, x, False)
-        x = out[1]
-    return out
+        return P.result(_sweep(P, x, _params(sheet), "g", (1.0,))[0])
+    ramp = sheet.curvature * np.arange(1, n_ramp + 1) / n_ramp
+    return P.result(_sweep(P, x, _params(sheet.replace(curvature=ramp[0])), "a/R", ramp)[-1])
 
 
 def _validate_common(branch, n_elements):
@@ -333,14 +386,15 @@ def ribbon(sheet, branch: str = "curvature", impose_flat: bool = False,
         if x0.shape != (4 * (n + 1),):
             raise ParameterError(f"initial must have {4 * (n + 1)} dofs (n_elements={n}), "
                              f"got shape {x0.shape}")
-        out = _solve_at(sheet, mesh, x0, impose_flat)
-        return _result(sheet, mesh, *out)
+        P = RibbonProblem(sheet, mesh, impose_flat)
+        return P.result(_sweep(P, x0, _params(sheet), "g", (1.0,))[0])
     if branch == "gravity":
-        return _result(sheet, mesh, *_gravity_first(sheet, mesh, impose_flat))
-    x = _clamped_state(n + 1, sheet.curvature, impose_flat)
-    for lam in (0.0, 0.25, 0.5, 0.75):
-        _, x, _, _, _ = _solve_at(sheet, mesh, x, impose_flat, lam)
-    return _result(sheet, mesh, *_solve_at(sheet, mesh, x, impose_flat))
+        return _gravity_first(sheet, mesh, impose_flat)
+    # curvature first: the clamped sheet, then gravity ramped up (one sweep in g)
+    P = RibbonProblem(sheet, mesh, impose_flat)
+    out = _sweep(P, _clamped_state(n + 1, sheet.curvature, impose_flat), _params(sheet), "g",
+                 (0.0, 0.25, 0.5, 0.75, 1.0))
+    return P.result(out[-1])
 
 
 def ribbon_energy_terms(sheet, result: RibbonResult) -> dict:
@@ -438,34 +492,30 @@ def _order_lengths(lengths, direction):
     return L if direction == "increasing" else L[::-1]
 
 
-def _march(template, mesh, prev, lengths, impose_flat):
-    """Natural continuation through ``lengths`` from ``prev``; returns the results."""
-    out = []
-    for Li in lengths:
-        sheet = template.replace(length=float(Li))
-        res = _result(sheet, mesh, *_solve_at(sheet, mesh, prev.state, impose_flat))
-        out.append(res)
-        if res.converged:
-            prev = res
-    return out
+def _march(P, prev, lengths):
+    """Natural continuation through ``lengths`` from the RibbonResult ``prev``
+    (a sweep in L); returns the corrector results."""
+    return _sweep(P, prev.state, _params(P.template.replace(length=prev.length)), "L", lengths)
 
 
-def _locate_jump(template, mesh, prev, L_new, impose_flat, jump_tol, depth=2, substeps=8):
+def _locate_jump(P, prev, L_new, jump_tol, depth=2, substeps=8):
     """Refine the step prev.length -> L_new; return (final result, jump length or nan).
 
     The step is re-done in ``substeps`` sub-steps, recursively (``depth``
     levels) inside the sub-interval with the largest change of deflection.  A
     genuine discontinuity keeps a change larger than ``jump_tol`` (and at least
     half of the coarser change) on the finest interval, width step/substeps^depth;
-    a steep but smooth branch does not.
+    a steep but smooth branch does not.  The final result is the corrector's
+    at ``L_new``, reached through the first level's sub-steps.
     """
     a, b = prev.length, float(L_new)
     start, final, big = prev, None, None
     for _level in range(depth):
         Ls = np.linspace(a, b, substeps + 1)[1:]
-        run = _march(template, mesh, start, Ls, impose_flat)
+        steps = _march(P, start, Ls)
+        run = [P.result(r) for r in steps]
         if final is None:
-            final = run[-1]
+            final = steps[-1]
         d = np.array([start.deflection] + [r.deflection for r in run])
         ok = np.array([True] + [r.converged for r in run])
         if not ok.all():
@@ -538,25 +588,40 @@ def ribbon_continuation(sheet_template, lengths, direction: str = "increasing",
     jump_tol = check_range("jump_tol", jump_tol, 0, None, lo_open=True)
     mesh = make_mesh(n)
     results, jump_at, good = [], np.full(L.size, np.nan), []
-    prev = start
     branch = "curvature" if direction == "increasing" else "gravity"
-    for i, Li in enumerate(L):
-        sheet = sheet_template.replace(length=float(Li))
-        if prev is None:
-            res = ribbon(sheet, branch=branch, impose_flat=impose_flat, n_elements=n)
-        else:
-            res = _result(sheet, mesh, *_solve_at(sheet, mesh, prev.state, impose_flat))
-            pred = prev.deflection
-            if len(good) >= 2 and not np.isfinite(jump_at[good[-1]]):
-                r1, r2 = results[good[-1]], results[good[-2]]
-                pred += (r1.deflection - r2.deflection) * (Li - r1.length) / (r1.length - r2.length)
-            if not res.converged or abs(res.deflection - pred) > refine_tol:
-                res, jump_at[i] = _locate_jump(sheet_template, mesh, prev, Li, impose_flat,
-                                               jump_tol)
+    i0 = 0
+    while start is None and i0 < L.size:  # fresh solves until one converges
+        res = ribbon(sheet_template.replace(length=float(L[i0])), branch=branch,
+                     impose_flat=impose_flat, n_elements=n)
         results.append(res)
         if res.converged:
-            prev = res
+            start = res
+            good.append(i0)
+        i0 += 1
+    P = RibbonProblem(sheet_template, mesh, impose_flat)
+    prev = [start]  # the last converged RibbonResult
+
+    def revise(k, Li, out, last):
+        """The refinement of a step whose deflection leaves the extrapolation."""
+        i = i0 + k
+        res, before = P.result(out), prev[0]
+        pred = before.deflection
+        if len(good) >= 2 and not np.isfinite(jump_at[good[-1]]):
+            r1, r2 = results[good[-1]], results[good[-2]]
+            pred += (r1.deflection - r2.deflection) * (Li - r1.length) / (r1.length - r2.length)
+        if not res.converged or abs(res.deflection - pred) > refine_tol:
+            out, jump_at[i] = _locate_jump(P, before, Li, jump_tol)
+            res = P.result(out)
+        results.append(res)
+        if res.converged:
+            prev[0] = res
             good.append(i)
+        return out
+
+    if i0 < L.size:
+        # natural continuation on the fixed S grid: a sweep in L from the start
+        _sweep(P, start.state, _params(sheet_template.replace(length=start.length)), "L",
+               L[i0:], revise=revise)
     d = np.array([r.deflection for r in results])
     conv = np.array([r.converged for r in results])
     stable = np.array([r.stable for r in results])
