@@ -15,6 +15,7 @@ from skfem_sheet.engine import (
     arclength,
     correct,
     natural,
+    sweep,
 )
 from skfem_sheet.engine.corrector import plain_linearization
 from skfem_sheet.engine.protocol import Counting, DenseFactorization
@@ -155,3 +156,47 @@ def test_arclength_reports_arclength_and_on_step():
     assert np.all(np.diff(s) <= chord + 1e-12)
     assert s[-1] == pytest.approx(chord.sum(), rel=0.02)
     assert b.points[0].iterations == 0
+
+
+# ---------------------------------------------------------------------------
+# sweeps through prescribed values
+# ---------------------------------------------------------------------------
+def test_sweep_keeps_failures_and_goes_on_from_the_last_converged_state():
+    """Past the fold of the upper branch Newton (at most 5 iterations) fails at
+    lam = 0.5 and 0.6; back at 0.3 the sweep restarts from the state at 0.2."""
+    tol = Tolerances(max_iterations=5)
+    values = [0.1, 0.2, 0.5, 0.6, 0.3]
+    out = sweep(cubic(), np.array([1.0]), np.array([0.0]), 0, values, tol=tol)
+    assert [r.converged for r in out] == [True, True, False, False, True]
+    for r, v in zip(out, values):
+        assert r.p[0] == v
+        if r.converged:
+            assert r.u[0] == pytest.approx(root(v), abs=1e-9)
+
+
+def test_sweep_predictor_saves_iterations():
+    values = np.linspace(0.02, 0.3, 15)
+    plain = sweep(cubic(), np.array([1.0]), np.array([0.0]), 0, values)
+    pred = sweep(cubic(), np.array([1.0]), np.array([0.0]), 0, values, predict=True)
+    assert all(r.converged for r in plain + pred)
+    assert [r.u[0] for r in pred] == pytest.approx([r.u[0] for r in plain], abs=1e-10)
+    assert sum(r.iterations for r in pred) < sum(r.iterations for r in plain)
+
+
+def test_sweep_revise_replaces_a_result_and_the_sweep_follows_it():
+    """The revised result (here: the lower root instead of the upper) is where
+    the sweep goes on from."""
+    P = Counting(cubic())
+    seen = []
+
+    def revise(k, value, res, last):
+        seen.append((k, value, last is None))
+        if k == 1:
+            return correct(P, np.array([-1.2]), res.p, plain_linearization(P), _tight())
+        return res
+
+    out = sweep(P, np.array([1.0]), np.array([0.0]), 0, [0.1, 0.2, 0.3], revise=revise)
+    assert seen == [(0, 0.1, True), (1, 0.2, False), (2, 0.3, False)]
+    assert out[0].u[0] == pytest.approx(root(0.1))
+    lower = np.min(np.roots([1.0, 0.0, -1.0, 0.3]).real)
+    assert out[2].u[0] == pytest.approx(lower, abs=1e-9)  # followed the revised state
