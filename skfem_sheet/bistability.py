@@ -201,7 +201,7 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
     At an iterate whose residual is below ``rtol``, the correction is first
     computed with the last factorisation (a back-substitution, no
     factorisation spent only to confirm convergence); if it is below ``utol``
-    the corrector stops there.  Otherwise the tangent is factorised at the
+    the corrector stops there and returns that iterate.  Otherwise the tangent is factorised at the
     iterate, at most ``max_factorizations`` times per correction.
     """
     state = {"fact": None, "n": 0}
@@ -215,7 +215,11 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
         if state["fact"] is not None and rn <= tol.rtol:
             du = state["fact"].solve(-r)
             if counter.correction_norm(du) <= tol.utol:
-                return rn, du, np.zeros_like(p), state["fact"], None
+                # converged at this iterate: it is returned as it is (the
+                # estimate ``du`` of the remaining error, below utol, is not
+                # applied), as skfem_sheet.newton.newton does, so that the
+                # sheet's continuations give that Newton's numbers
+                return rn, np.zeros_like(du), np.zeros_like(p), state["fact"], None
         if state["n"] >= max_factorizations:
             raise EngineFailure("max iterations")
         J = counter.jacobian(u, p)
