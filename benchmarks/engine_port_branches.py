@@ -89,13 +89,25 @@ def compare(before, after):
             b = B[key][sub] if sub else B[key]
             name = key + (f".{sub}" if sub else "")
             same = len(a["values"]) == len(b["values"]) and np.allclose(
-                a["values"], b["values"], rtol=0, atol=1e-12)
+                a["values"], b["values"], rtol=0, atol=1e-6)
             rel = _rel(b["d"], a["d"]) if same else float("nan")
             st = a["stable"] == b["stable"]
             fa = [a.get(k) for k in ("fold", "folds", "jumps") if k in a]
             fb = [b.get(k) for k in ("fold", "folds", "jumps") if k in b]
             print(f"{name:28s} {len(a['values']):4d}/{len(b['values']):<3d} {str(same):>11s} "
                   f"{rel:10.2e} {str(st):>11s}  {fa} -> {fb}")
+            if not same:  # the common prefix of equal parameter values
+                va, vb = np.asarray(a["values"]), np.asarray(b["values"])
+                n = min(len(va), len(vb))
+                k = int(np.argmax(np.abs(va[:n] - vb[:n]) > 1e-6)) if np.any(
+                    np.abs(va[:n] - vb[:n]) > 1e-6) else n
+                print(f"{'':28s} the first {k} points agree: max |dL| "
+                      f"{np.abs(va[:k] - vb[:k]).max():.1e}, max rel d "
+                      f"{_rel(b['d'][:k], a['d'][:k]):.1e}; then a step-size decision "
+                      f"differs (points further along the same curve)")
+            elif key.startswith("s_curve"):
+                print(f"{'':28s} max |dL| {np.abs(np.subtract(a['values'], b['values'])).max():.1e}"
+                      " (L is an unknown of the arclength system)")
         if "L0" in A[key]:
             print(f"{'':28s} L0* {A[key]['L0']} -> {B[key]['L0']}; L1* {A[key]['L1']} -> "
                   f"{B[key]['L1']}; wall {A[key]['wall_time_s']:.0f} s -> "
