@@ -16,6 +16,19 @@
     folds.  Folds are detected by a sign change of the tangent's parameter
     component ``t_p`` (and of the inertia) between points and located by
     :func:`~skfem_sheet.engine.fold.locate_fold` from the nearer point.
+:func:`sweep`
+    continuation through prescribed values of one parameter (load ramps, a
+    grid of lengths): no step control, failed corrections kept, a ``revise``
+    hook to re-do a step (e.g. in sub-steps).
+
+The drivers take hooks for the problems that need more than the protocol:
+``start`` (an already converged first point), ``linearization`` (the
+corrector's own linearisation and trial test, e.g. a stopping rule or a line
+search), and for :func:`natural` ``check`` (further acceptance tests: stability,
+a jump of an observable), ``before_step`` (remesh and transfer the state),
+``on_step`` (a callback per point, e.g. to write a series), ``bracket`` (end
+a bisection of the step at this width instead of locating the fold) and the
+step growth (``growth``, ``grow_after``).
 """
 from __future__ import annotations
 
