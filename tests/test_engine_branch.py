@@ -200,3 +200,19 @@ def test_sweep_revise_replaces_a_result_and_the_sweep_follows_it():
     assert out[0].u[0] == pytest.approx(root(0.1))
     lower = np.min(np.roots([1.0, 0.0, -1.0, 0.3]).real)
     assert out[2].u[0] == pytest.approx(lower, abs=1e-9)  # followed the revised state
+
+
+def test_inertia_change_ends_a_branch_only_when_asked():
+    """The trivial branch u = 0 of u^3 - lam u = 0 loses stability at the
+    pitchfork lam = 0 (the tangent -lam changes sign) without a fold."""
+    P = FunctionProblem(lambda u, p: u**3 - p[0] * u, lambda u, p: np.diag(3 * u**2 - p[0]),
+                        ("lam",))
+    kw = dict(step=0.1, min_step=0.01, locate=False)
+    strict = natural(P, np.zeros(1), np.array([-0.95]), 0, 0.95, **kw)
+    assert not strict.completed and "inertia changed from 0 to 1" in strict.reason
+    lo, hi = strict.bracket
+    assert lo < 0 < hi and hi - lo <= 0.01 * (1 + 1e-9)
+    loose = natural(P, np.zeros(1), np.array([-0.95]), 0, 0.95, inertia_change=False, **kw)
+    assert loose.completed
+    k = [pt.negative_eigenvalues for pt in loose.points]
+    assert k[0] == 0 and k[-1] == 1
