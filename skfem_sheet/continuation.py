@@ -10,10 +10,13 @@ In the bistable region the equilibrium reached depends on the load path
     ramp gravity at zero curvature, then the curvature: selects the
     gravity-dominated (drooped) shape.
 
-Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps:
+Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps, by
+the engine's natural-continuation driver (:func:`~skfem_sheet.engine.loadpath.ramp`):
 every step is warm-started by a tangent predictor (one extra back-substitution
-with the last factorisation) and corrected by Newton; steps grow after easy
-corrections and are halved after failures.
+with the last factorisation) and corrected by Newton (the engine's corrector,
+through :func:`~skfem_sheet.newton.newton`); steps grow after easy corrections
+and are halved after failures.  This module says what a step of a sheet is;
+the loops are the engine's.
 
 End states are verified: after a snap-through and at full load the inertia of
 the tangent is read (:func:`~skfem_sheet.analyses.stability.stability`); an
