@@ -10,10 +10,13 @@ In the bistable region the equilibrium reached depends on the load path
     ramp gravity at zero curvature, then the curvature: selects the
     gravity-dominated (drooped) shape.
 
-Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps:
+Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps, by
+the engine's natural-continuation driver (:func:`~skfem_sheet.engine.loadpath.ramp`):
 every step is warm-started by a tangent predictor (one extra back-substitution
-with the last factorisation) and corrected by Newton; steps grow after easy
-corrections and are halved after failures.
+with the last factorisation) and corrected by Newton (the engine's corrector,
+through :func:`~skfem_sheet.newton.newton`); steps grow after easy corrections
+and are halved after failures.  This module says what a step of a sheet is;
+the loops are the engine's.
 
 End states are verified: after a snap-through and at full load the inertia of
 the tangent is read (:func:`~skfem_sheet.analyses.stability.stability`); an
@@ -30,6 +33,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.linalg import ArpackError, ArpackNoConvergence
 
 from .analyses.stability import stability
+from .engine.loadpath import Attempt, RampControl, ramp
 from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
@@ -352,18 +356,6 @@ def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options,
     return w, stable, k, escaped, iterations, ""
 
 
-def _growth(iterations, opts):
-    """Step-size factor after a converged step: grow after easy corrections,
-    shrink a little after hard ones (aiming at ``easy_iterations``)."""
-    if iterations <= opts.easy_iterations:
-        return opts.grow
-    if iterations == opts.easy_iterations + 1:
-        return 1.0 + 0.5 * (opts.grow - 1.0)
-    if iterations == opts.easy_iterations + 2:
-        return 1.0
-    return 0.7
-
-
 def follow_path(problem, path: str, kappa: float, solver, *,
                 newton_options: NewtonOptions = NewtonOptions(),
                 step_options: StepOptions = StepOptions(),
@@ -409,11 +401,10 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
     out = PathOutcome(w=w)
     have_factor = False
-    snapping = False
     scale = max(1.0, problem.sheet.length)  # displacements grow with the length
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol)
     for iphase, (name, load) in enumerate(phases):
-        lam, step = 0.0, step_options.initial_step
+        lam = 0.0
         prev = None  # (lam, w) of the previous converged step of this phase
         last_phase = iphase == len(phases) - 1
         if (name == "gravity" and load(0.0)[0] == 0.0 and step_options.elastica_start
@@ -433,8 +424,14 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 out.rejected_steps += 1
                 out.rejections.append((name, 1.0, "elastica start: " + res.reason,
                                        res.iterations, res.corrections))
-        while lam < 1.0:
-            lam_new = min(1.0, lam + step)
+
+        def attempt(lam, lam_new, snapping, name=name, load=load, iphase=iphase,
+                    last_phase=last_phase):
+            """One load step from the accepted state ``w`` at ``lam``: the tangent
+            predictor (one back-substitution with the last factorisation), then
+            Newton (or, snapping, a pseudo-transient settle and Newton), then the
+            verification of a snapped state."""
+            nonlocal w, prev, have_factor
             k_new, g_new = load(lam_new)
             k_old, _ = load(lam)
             if not have_factor:
@@ -442,8 +439,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 try:
                     timed(stats, "linear_solve_s", solver.factorize, K, w)
                 except LinearSolverError as err:
-                    out.reason = f"singular tangent at the start of the {name} phase ({err})"
-                    return out
+                    return Attempt(False, 0, stop=f"singular tangent at the start of the "
+                                   f"{name} phase ({err})")
                 stats.factorizations += 1
                 have_factor = True
             dk, dg = _load_rate(load, lam)
@@ -466,47 +463,54 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             else:
                 res = newton(problem, w_pred, g_new, solver, opts, stats,
                              max_first_increment=guard)
-            if res.converged:
-                w_new = res.w
-                if snapping:
-                    if step_options.verify:
-                        # the settle is drawn to stable states, but check
-                        w_new, _, _, _, n_e, msg = _make_stable(
-                            problem, w_new, k_new, g_new, solver, stats, opts, loose,
-                            step_options, scale)
-                        out.snap_iterations += n_e
-                        if msg:
-                            out.reason = f"{name} phase, snap at {lam_new:.4g} of its range: {msg}"
-                            return out
-                    # a snap only if the sheet really left its branch; the
-                    # damped iteration may also settle just short of the fold
-                    nu = problem.nu_dof
-                    # (a load step below snap_step moves nodes by a few 1e-2 at most)
-                    if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
-                        out.snaps.append((name, lam_new, k_new, g_new))
-                    snapping = False
-                prev = (lam, w)
-                w, lam = w_new, lam_new
-                out.w, out.kappa, out.g = w, k_new, g_new
-                out.steps.append((name, lam, res.iterations))
-                if on_step is not None:
-                    on_step(problem, w, k_new, g_new)
-                # Newton leaves the factorisation of its last tangent behind
-                if progress is not None:
-                    progress((iphase + lam) / len(phases))
-                step = min(step_options.max_step, step * _growth(res.iterations, step_options))
-                continue
-            out.rejected_steps += 1
-            out.rejections.append((name, lam_new, res.reason, res.iterations, res.corrections))
-            have_factor = False  # the failed attempt's factorisation is useless
-            step *= 0.5
-            if iphase > 0 and not snapping and step < step_options.snap_step:
-                # the branch ends here (a fold): let the sheet snap to the other one
-                snapping = True
-            elif step < step_options.min_step:
-                out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
+            if not res.converged:
+                out.rejected_steps += 1
+                out.rejections.append((name, lam_new, res.reason, res.iterations,
+                                       res.corrections))
+                have_factor = False  # the failed attempt's factorisation is useless
+                return Attempt(False, res.iterations, res.reason)
+            w_new = res.w
+            if snapping:
+                if step_options.verify:
+                    # the settle is drawn to stable states, but check
+                    w_new, _, _, _, n_e, msg = _make_stable(
+                        problem, w_new, k_new, g_new, solver, stats, opts, loose,
+                        step_options, scale)
+                    out.snap_iterations += n_e
+                    if msg:
+                        return Attempt(True, res.iterations, stop=f"{name} phase, snap at "
+                                       f"{lam_new:.4g} of its range: {msg}")
+                # a snap only if the sheet really left its branch; the
+                # damped iteration may also settle just short of the fold
+                nu = problem.nu_dof
+                # (a load step below snap_step moves nodes by a few 1e-2 at most)
+                if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
+                    out.snaps.append((name, lam_new, k_new, g_new))
+            prev = (lam, w)
+            w = w_new
+            out.w, out.kappa, out.g = w, k_new, g_new
+            out.steps.append((name, lam_new, res.iterations))
+            if on_step is not None:
+                on_step(problem, w, k_new, g_new)
+            # Newton leaves the factorisation of its last tangent behind
+            if progress is not None:
+                progress((iphase + lam_new) / len(phases))
+            return Attempt(True, res.iterations)
+
+        if lam < 1.0:
+            control = RampControl(step_options.initial_step, step_options.min_step,
+                                  step_options.max_step, step_options.grow,
+                                  step_options.easy_iterations,
+                                  step_options.snap_step if iphase > 0 else None)
+            done = ramp(lam, control, attempt)
+            if done.reason == "step below min_step":
+                out.reason = (f"{name} phase stopped at {done.lam:.4g} of its range "
                               f"(kappa={out.kappa:.4g}, g={out.g:.4g}): step below "
-                              f"{step_options.min_step:g}; last Newton failure: {res.reason}")
+                              f"{step_options.min_step:g}; last Newton failure: "
+                              f"{done.last_failure}")
+                return out
+            if not done.converged:
+                out.reason = done.reason
                 return out
     if step_options.verify:
         # the end state must be a stable equilibrium (or say that it is not known)

@@ -1,4 +1,11 @@
-"""Newton-Raphson for one load ``(kappa, g)``, and pseudo-transient continuation.
+"""Newton-Raphson for one load ``(kappa, g)``, and pseudo-transient continuation,
+on the sheet: the engine's corrector and transient iteration, with the sheet's
+stopping rule and admissibility.
+
+There is one Newton loop in the package, :func:`skfem_sheet.engine.corrector.correct`,
+and one pseudo-transient iteration, :func:`skfem_sheet.engine.transient.pseudo_transient`;
+:func:`newton` and :func:`pseudo_transient` here only say what a sheet is to them
+(state = the whole dof vector, corrections on the free dofs, norms, counters).
 
 Convergence needs both a small residual and a small next increment::
 
@@ -17,6 +24,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from .engine import transient
+from .engine.corrector import Tolerances, correct
+from .engine.protocol import Counting, EngineFailure, Problem
 from .linalg import LinearSolverError
 from .params import check_range
 
@@ -85,34 +95,90 @@ def timed(stats, attr, fn, *args):
         setattr(stats, attr, getattr(stats, attr) + time.perf_counter() - t)
 
 
-def _admissible_step(problem, w, delta, g, max_halvings, stats):
-    """``w + alpha delta`` on the free dofs with the largest ``alpha = 2^-k``
-    (``k <= max_halvings``) whose residual is finite and whose elements are not
-    inverted.  Returns ``(w_new, r_new, alpha)``, or ``None`` if there is none."""
-    alpha = 1.0
-    for _ in range(max_halvings + 1):
-        wt = w.copy()
-        wt[problem.free] += alpha * delta
-        rt, Jmin = timed(stats, "assembly_s", problem.residual, wt, g)
-        stats.residual_evaluations += 1
-        if Jmin > 0 and np.all(np.isfinite(rt)):
-            return wt, rt, alpha
-        alpha *= 0.5
-    return None
+
+
+class _SheetNewton(Problem):
+    """The sheet at gravity ``g`` as the engine's corrector sees it: the state is
+    the whole dof vector (clamped entries kept), a correction is zero on the
+    fixed dofs, its norm is the largest displacement on the free dofs.  The
+    residual of an accepted trial point is kept for the next linearisation (one
+    residual evaluation per iteration, as the stopping test needs it anyway)."""
+
+    def __init__(self, problem, g, solver, options, stats):
+        self.problem, self.g, self.solver, self.options, self.stats = (
+            problem, g, solver, options, stats)
+        self.free = problem.free
+        self.nu_free = self.free < problem.nu_dof
+        self.rref = float(np.linalg.norm(problem.gravity_load[self.free]))
+        self.last = (None, None)  # (state, residual) of the last admissible point
+        self.residuals = []
+
+    def evaluate(self, w):
+        """The residual at ``w`` if ``w`` is admissible (no inverted element,
+        finite), else None; kept for the linearisation at ``w``."""
+        r, Jmin = timed(self.stats, "assembly_s", self.problem.residual, w, self.g)
+        self.stats.residual_evaluations += 1
+        ok = Jmin > 0 and bool(np.all(np.isfinite(r)))
+        self.last = (w, r) if ok else (None, None)
+        return r if ok else None
+
+    def admissible(self, w, p):
+        return self.evaluate(w) is not None
+
+    def correction_norm(self, du):
+        return float(np.abs(du[: self.problem.nu_dof]).max())
+
+    def back_solve(self, r):
+        return timed(self.stats, "linear_solve_s", self.solver.solve, -r[self.free])
+
+    def linearize(self, w, p):
+        kept, r = self.last
+        if kept is not w and not np.array_equal(kept, w):
+            r = self.evaluate(w)
+            if r is None:
+                raise EngineFailure("inverted element")
+        rn = float(np.linalg.norm(r[self.free]))
+        if not np.isfinite(rn):
+            raise EngineFailure("NaN in the residual")
+        K = timed(self.stats, "assembly_s", self.problem.tangent, w)
+        try:
+            timed(self.stats, "linear_solve_s", self.solver.factorize, K, w)
+            delta = self.back_solve(r)
+        except LinearSolverError as err:
+            raise EngineFailure(f"singular tangent ({err})") from None
+        self.stats.factorizations += 1
+        self.stats.newton_iterations += 1
+        if not np.all(np.isfinite(delta)):
+            raise EngineFailure("NaN in the Newton increment")
+        du = np.zeros_like(w)
+        du[self.free] = delta
+        return rn, du, np.zeros(1), self.solver, None
+
+    def converged(self, w, p, fact, extra):
+        """Small residual at ``w`` and a small simplified-Newton correction
+        there (a back-substitution with the factorisation at hand)."""
+        r = self.last[1]
+        rn = float(np.linalg.norm(r[self.free]))
+        self.residuals.append(rn)
+        if rn > self.options.rtol * self.rref:
+            return False
+        return float(np.abs(self.back_solve(r)[self.nu_free]).max()) <= self.options.utol
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
            max_first_increment=np.inf) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
-    Full Newton steps, halved only where a trial point has an inverted element
-    (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard natural-monotonicity)
-    line search was tried and rejected: a bending step of a thin sheet leaves a
-    large membrane residual that the *next* full Newton step removes, so those
-    tests cut good steps and doubled the iteration counts.  Globalisation is
-    the job of the load stepping (:mod:`skfem_sheet.continuation`), which cuts
-    the load step when Newton fails here; an iteration whose correction grows
-    far beyond the first one is stopped early as "diverging".
+    The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
+    the sheet.  Full Newton steps, halved only where a trial point has an
+    inverted element (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard
+    natural-monotonicity) line search was tried and rejected: a bending step
+    of a thin sheet leaves a large membrane residual that the *next* full
+    Newton step removes, so those tests cut good steps and doubled the
+    iteration counts.  Globalisation is the job of the load stepping
+    (:mod:`skfem_sheet.continuation`), which cuts the load step when Newton
+    fails here; an iteration whose correction (from the third on) exceeds
+    ``max(10 first, 0.1)`` is stopped early as "diverging".
 
     Convergence: ``||r_free|| <= rtol ||f_gravity||`` and the next correction
     is below ``utol``.  The next correction is estimated by a simplified Newton
@@ -141,57 +207,65 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         ("inverted element", "NaN ...", "diverging", "max iterations",
         "singular tangent", "first correction too large") otherwise.
     """
-    free = problem.free
-    nu_free = free < problem.nu_dof  # displacement part of the free dofs
-    rref = float(np.linalg.norm(problem.gravity_load[free]))
-    w = w.copy()
+    sheet = _SheetNewton(problem, g, solver, options, stats)
+    w = np.array(w, dtype=float)
     r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1
     if not Jmin > 0:
         return NewtonResult(w, False, 0, "inverted element in the initial guess")
-    rn = float(np.linalg.norm(r[free]))
-    history = [rn]
-    first = 0.0
-    corrections = []
+    sheet.last = (w, r)  # a NaN in it ends the first linearisation
+    sheet.residuals.append(float(np.linalg.norm(r[problem.free])))
+    tol = Tolerances(rtol=options.rtol, utol=options.utol, max_iterations=options.max_iterations,
+                     max_halvings=options.max_halvings, max_correction=max_first_increment,
+                     divergence_floor=0.1)
+    start = stats.newton_iterations
+    res = correct(Counting(sheet), w, np.array([float(g)]), sheet.linearize, tol,
+                  sheet.admissible, converged=sheet.converged)
+    corrections = [dn for _, dn in res.history]
+    reason = "inverted element" if res.reason.startswith("inadmissible") else res.reason
+    return NewtonResult(res.u, res.converged, stats.newton_iterations - start, reason,
+                        sheet.residuals, corrections[0] if corrections else 0.0, corrections)
 
-    def back_solve(rhs):
-        return timed(stats, "linear_solve_s", solver.solve, rhs)
 
-    for it in range(options.max_iterations):
-        if not np.isfinite(rn):
-            return NewtonResult(w, False, it, "NaN in the residual", history, first, corrections)
-        K = timed(stats, "assembly_s", problem.tangent, w)
+class _SheetTransient(transient.TransientSystem):
+    """The sheet at gravity ``g`` as the pseudo-transient iteration sees it
+    (state: the whole dof vector; ``M``: the displacement mass matrix)."""
+
+    def __init__(self, problem, g, solver, stats, negatives):
+        self.problem, self.g, self.solver, self.stats, self.negatives = (
+            problem, g, solver, stats, negatives)
+
+    def residual(self, w):
+        r, Jmin = timed(self.stats, "assembly_s", self.problem.residual, w, self.g)
+        self.stats.residual_evaluations += 1
+        return r if Jmin > 0 and np.all(np.isfinite(r)) else None
+
+    def residual_norm(self, r):
+        return float(np.linalg.norm(r[self.problem.free]))
+
+    def correction_norm(self, du):
+        return float(np.abs(du[: self.problem.nu_dof]).max())
+
+    def tangent(self, w):
+        return timed(self.stats, "assembly_s", self.problem.tangent, w)
+
+    def factorize(self, K, w, sigma):
+        A = K if sigma == 0.0 else sp.csr_matrix((K.data + sigma * self.problem.mass_data,
+                                                  K.indices, K.indptr), shape=K.shape)
         try:
-            timed(stats, "linear_solve_s", solver.factorize, K, w)
-            delta = back_solve(-r[free])
-        except LinearSolverError as err:
-            return NewtonResult(w, False, it, f"singular tangent ({err})", history, first, corrections)
-        stats.factorizations += 1
-        stats.newton_iterations += 1
-        if not np.all(np.isfinite(delta)):
-            return NewtonResult(w, False, it + 1, "NaN in the Newton increment", history, first, corrections)
-        corrections.append(float(np.abs(delta[nu_free]).max()))
-        if it == 0:
-            first = corrections[0]
-            if first > max_first_increment:
-                return NewtonResult(w, False, 1, "first correction too large "
-                                    f"({first:.3g} > {max_first_increment:.3g})", history, first, corrections)
-        # Corrections of a thin sheet are often non-monotone for a few
-        # iterations (a bending step leaves a membrane residual for the next
-        # one): only a correction far beyond the first one counts as divergence.
-        if it >= 2 and corrections[-1] > max(10.0 * first, 0.1):
-            return NewtonResult(w, False, it + 1, "diverging", history, first, corrections)
-        step = _admissible_step(problem, w, delta, g, options.max_halvings, stats)
-        if step is None:
-            return NewtonResult(w, False, it + 1, "inverted element", history, first, corrections)
-        w, r, _ = step
-        rn = float(np.linalg.norm(r[free]))
-        history.append(rn)
-        if rn <= options.rtol * rref:
-            dbar = back_solve(-r[free])
-            if float(np.abs(dbar[nu_free]).max()) <= options.utol:
-                return NewtonResult(w, True, it + 1, "", history, first, corrections)
-    return NewtonResult(w, False, options.max_iterations, "max iterations", history, first, corrections)
+            timed(self.stats, "linear_solve_s", self.solver.factorize, A, w)
+            self.stats.factorizations += 1
+            return (self.negatives(self.problem, self.solver) if self.negatives is not None
+                    else None)
+        except LinearSolverError:
+            raise EngineFailure("singular shifted tangent") from None
+
+    def correction(self, r):
+        free = self.problem.free
+        du = np.zeros_like(r)
+        du[free] = timed(self.stats, "linear_solve_s", self.solver.solve, -r[free])
+        self.stats.newton_iterations += 1
+        return du
 
 
 def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,
@@ -199,28 +273,18 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
                      sigma_floor=1e-2) -> NewtonResult:
     """Pseudo-transient continuation to a stable equilibrium at gravity ``g``.
 
-    Used where a branch ends at a fold and the sheet must snap to the other
-    branch, which plain Newton cannot reach, and to leave an unstable
-    equilibrium.  Iterates (Kelley & Keyes, SIAM J. Numer. Anal. 35, 1998)::
+    The engine's iteration (:func:`skfem_sheet.engine.transient.pseudo_transient`,
+    Kelley & Keyes 1998) on the sheet::
 
         (K(w) + sigma M) dw = -r(w)
 
     with the displacement mass matrix ``M``: a damped, gradient-flow-like path
     that is drawn to stable equilibria, turning into Newton as ``sigma -> 0``.
-
-    The shift is controlled by the inertia of the shifted tangent and by the
-    step length, never by ratios of residual norms (which near convergence are
-    ratios of round-off and made the old schedule, and so the iteration count
-    and the end state, depend on it):
-
-    - a shifted tangent with a negative direction on the incompressible
-      subspace (``negatives(problem, solver) > 0``) is refactorised with
-      ``sigma`` four times larger (``sigma_floor`` if it was 0): every step is
-      a descent step of a convex model, which repels from saddles;
-    - a step whose largest displacement exceeds ``radius`` is cut to it, and a
-      cut (or halved) step doubles ``sigma``; a full step divides it by four,
-      and below ``sigma_floor`` it becomes exactly 0 (plain Newton);
-    - steps that invert an element are halved.
+    Used where a branch ends at a fold and the sheet must snap to the other
+    branch, which plain Newton cannot reach, and to leave an unstable
+    equilibrium.  The shift is controlled by the inertia of the shifted
+    tangent (``negatives``) and by the step length, never by ratios of
+    residual norms.
 
     Stopping rule: a plain Newton step (``sigma = 0``) whose tangent has no
     negative direction (or whose inertia the back-end cannot report) and
@@ -250,51 +314,12 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
         ``converged`` False with a ``reason`` if it did not settle in
         ``max_iterations`` steps, or a step could not avoid inverted elements.
     """
-    free = problem.free
-    nu_free = free < problem.nu_dof
-    M = problem.mass_data
-    w = w.copy()
-    r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
-    stats.residual_evaluations += 1
-    if not Jmin > 0:
-        return NewtonResult(w, False, 0, "inverted element in the initial guess")
-    history, corrections = [float(np.linalg.norm(r[free]))], []
-    sigma = float(shift)
-    sigma_max = 1e6 * max(float(shift), sigma_floor)
-    for it in range(max_iterations):
-        K = timed(stats, "assembly_s", problem.tangent, w)
-        while True:
-            A = K if sigma == 0.0 else sp.csr_matrix((K.data + sigma * M, K.indices, K.indptr),
-                                                     shape=K.shape)
-            try:
-                timed(stats, "linear_solve_s", solver.factorize, A, w)
-                stats.factorizations += 1
-                k = negatives(problem, solver) if negatives is not None else None
-            except LinearSolverError:
-                k = -1  # singular: more damping
-            if k is None or k == 0:
-                break
-            sigma = max(4.0 * sigma, sigma_floor)
-            if sigma > sigma_max:
-                return NewtonResult(w, False, it, "no shift makes the tangent positive definite",
-                                    history, 0.0, corrections)
-        delta = timed(stats, "linear_solve_s", solver.solve, -r[free])
-        stats.newton_iterations += 1
-        if not np.all(np.isfinite(delta)):
-            return NewtonResult(w, False, it + 1, "NaN in the increment", history, 0.0, corrections)
-        du = float(np.abs(delta[nu_free]).max())
-        corrections.append(du)
-        if sigma == 0.0 and du <= options.utol:
-            return NewtonResult(w, True, it + 1, "", history, 0.0, corrections)
-        cut = min(1.0, radius / du) if du > 0 else 1.0
-        step = _admissible_step(problem, w, cut * delta, g, options.max_halvings, stats)
-        if step is None:
-            return NewtonResult(w, False, it + 1, "inverted element", history, 0.0, corrections)
-        w, r, alpha = step
-        history.append(float(np.linalg.norm(r[free])))
-        if cut < 1.0 or alpha < 1.0:
-            sigma = max(2.0 * sigma, sigma_floor)
-        else:
-            sigma = sigma / 4.0 if sigma / 4.0 >= sigma_floor else 0.0
-    return NewtonResult(w, False, max_iterations, "pseudo-transient iteration did not settle",
-                        history, 0.0, corrections)
+    system = _SheetTransient(problem, g, solver, stats, negatives)
+    res = transient.pseudo_transient(system, w, utol=options.utol, shift=shift,
+                                     max_iterations=max_iterations, radius=radius,
+                                     sigma_floor=sigma_floor,
+                                     max_halvings=options.max_halvings)
+    reason = {"inadmissible initial state": "inverted element in the initial guess",
+              "inadmissible trial states": "inverted element"}.get(res.reason, res.reason)
+    return NewtonResult(res.u, res.converged, res.iterations, reason, list(res.residuals),
+                        0.0, list(res.corrections))

@@ -28,9 +28,12 @@ LAYERS = {
     "assembly.py": 3,         # Assembler: sparsity pattern, buffers, threads
     "problem.py": 4,          # SheetProblem: residual, tangent, energy, with_length
     "linalg.py": 5,           # linear solvers, given a SaddlePointLayout
-    "newton.py": 6,           # Newton, pseudo-transient, Stats, timed
+    "engine/protocol.py": 6,  # the engine's problem protocol and counters (generic)
+    "engine/corrector.py": 6,  # the one Newton loop (correct), bordered solves
+    "engine/transient.py": 6,  # the one pseudo-transient iteration
+    "newton.py": 6,           # Newton and pseudo-transient on the sheet (the two above), Stats, timed
     "analyses/": 7,           # stability, observables, transfer between meshes
-    "engine/": 8,             # the continuation engine
+    "engine/": 8,             # the continuation engine (drivers: fold, branch, curves, load paths)
     "reduced/": 9,            # reduced-order models
     "continuation.py": 10,    # load paths (follow_path)
     "solve.py": 11,           # solve, Result, Result.to_record

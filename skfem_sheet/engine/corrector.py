@@ -46,6 +46,13 @@ class Tolerances:
     max_correction : float
         Give up if the first correction is larger than this (a guard against
         jumping to another branch); ``inf`` for no guard.
+    divergence_floor : float or None
+        From the third linearisation on, a correction larger than
+        ``10 max(first, utol)`` (``None``, the default) or than
+        ``max(10 first, divergence_floor)`` (a number) stops the iteration as
+        "diverging".  A floor suits problems whose corrections are
+        non-monotone for a few iterations (a bending step of a thin sheet
+        leaves a membrane residual for the next one).
     """
 
     rtol: float = 1e-10
@@ -53,6 +60,7 @@ class Tolerances:
     max_iterations: int = 12
     max_halvings: int = 6
     max_correction: float = np.inf
+    divergence_floor: float | None = None
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, None, lo_open=True)
@@ -61,6 +69,8 @@ class Tolerances:
         check_range("max_halvings", self.max_halvings, 0, 60)
         if not self.max_correction > 0:  # inf allowed (no guard)
             raise ParameterError(f"max_correction must be in (0, inf], got {self.max_correction!r}")
+        if self.divergence_floor is not None:
+            check_range("divergence_floor", self.divergence_floor, 0, None)
 
 
 #: The default stopping rule of the drivers.
@@ -145,8 +155,13 @@ class Bordered:
         return x, y
 
 
-def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None):
+def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None, *,
+            converged=None):
     """Newton's method on a (possibly extended) system: the one loop.
+
+    Every Newton iteration of the package runs here: the drivers of the
+    engine, and (through :func:`skfem_sheet.newton.newton`) the sheet's load
+    paths and continuation in L.
 
     Parameters
     ----------
@@ -160,6 +175,14 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
     tol : Tolerances
     admissible : callable(u, p) -> bool, optional
         Whether a trial point may be used (default: finite residual).
+    converged : callable(u, p, factorization, extra) -> bool, optional
+        A stopping test made after each step, at the new iterate ``(u, p)``,
+        with the factorisation of the previous one at hand (e.g. a small
+        residual there and a small simplified-Newton correction from one
+        back-substitution, so that no factorisation is spent only to confirm
+        convergence).  If it holds, ``(u, p)`` is returned as converged.  With
+        it the default test before the step (residual and correction at the
+        iterate below ``rtol`` and ``utol``) is not made.
 
     Returns
     -------
@@ -189,7 +212,7 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
         history.append((float(rn), float(dn)))
         if not (np.isfinite(rn) and np.isfinite(dn)):
             return result(False, "non-finite residual or correction", it)
-        if rn <= tol.rtol and dn <= tol.utol:
+        if converged is None and rn <= tol.rtol and dn <= tol.utol:
             u, p = u + du, p + dp
             return result(True, "", it)
         if first is None:
@@ -197,7 +220,8 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
             if dn > tol.max_correction:
                 return result(False, f"first correction too large ({dn:.3g} > "
                               f"{tol.max_correction:.3g})", it)
-        elif it >= 3 and dn > 10.0 * max(first, tol.utol):
+        elif it >= 3 and dn > (10.0 * max(first, tol.utol) if tol.divergence_floor is None
+                               else max(10.0 * first, tol.divergence_floor)):
             return result(False, "diverging", it)
         alpha = 1.0
         for _ in range(tol.max_halvings + 1):
@@ -209,6 +233,8 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
             return result(False, "inadmissible trial states (halved "
                           f"{tol.max_halvings} times)", it)
         u, p = ut, pt
+        if converged is not None and converged(u, p, fact, extra):
+            return result(True, "", it)
     return result(False, "max iterations", tol.max_iterations)
 
 

@@ -1,0 +1,99 @@
+"""The load-path regression set (issues 17 and 19): d, stability, Newton
+iterations and factorisations of ~12 coarse solves, each in a fresh process
+with reproducible arithmetic (one thread, ``MKL_CBWR=COMPATIBLE``).
+
+Usage::
+
+    python benchmarks/snap_baseline.py OUT.jsonl            # run the set
+    python benchmarks/snap_baseline.py --compare A.jsonl B.jsonl
+
+``--compare`` prints both runs side by side, the relative change of d, and the
+totals of Newton iterations and factorisations.
+"""
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+THIN = dict(thickness=0.02, modulus=400.0)
+# (id, sheet, path, hmax, solve keywords)
+CASES = [
+    ("rect-L1-cf", dict(length=1.0, tip_width=1.0, curvature=2.5), "curvature-first", 0.1, {}),
+    ("rect-L1-gf", dict(length=1.0, tip_width=1.0, curvature=2.5), "gravity-first", 0.1, {}),
+    ("rect-L1.3-cf", dict(length=1.3, tip_width=1.0, curvature=2.5), "curvature-first", 0.1, {}),
+    ("rect-L1.3-gf", dict(length=1.3, tip_width=1.0, curvature=2.5), "gravity-first", 0.1, {}),
+    ("triangle-cf", dict(length=1.0, tip_width=0.0, curvature=2.5), "curvature-first", 0.1, {}),
+    ("tapered-b0.8-gf", dict(length=1.2, tip_width=0.8, curvature=2.5), "gravity-first", 0.08, {}),
+    ("issue17-gf", dict(length=1.299, tip_width=0.633, curvature=5.112, **THIN),
+     "gravity-first", 0.08, {}),
+    ("short-thin-popup-gf", dict(length=1.0, tip_width=0.8, curvature=5.5, **THIN),
+     "gravity-first", 0.08, {}),
+    ("rectangle-popup-gf", dict(length=1.3, tip_width=1.0, curvature=6.0), "gravity-first", 0.1, {}),
+    ("long-thin-drop-cf", dict(length=1.63, tip_width=0.65, curvature=3.37, **THIN),
+     "curvature-first", 0.1, {}),
+    ("rect-L1-cf-full", dict(length=1.0, tip_width=1.0, curvature=2.5), "curvature-first", 0.1,
+     dict(symmetric=False)),
+    ("rect-L1.3-gf-superlu", dict(length=1.3, tip_width=1.0, curvature=2.5), "gravity-first", 0.1,
+     dict(solver="superlu")),
+]
+
+CHILD = """
+import json, sys, time
+from skfem_sheet import Sheet, solve
+spec = json.loads(sys.argv[1])
+t = time.perf_counter()
+r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return",
+          **spec["kw"])
+print(json.dumps(dict(d=r.deflection, converged=r.converged, stable=r.stable, branch=r.branch,
+                      newton_iterations=r.newton_iterations, factorizations=r.factorizations,
+                      snaps=[list(s) for s in r.snaps], wall_s=time.perf_counter() - t)))
+"""
+
+ENV = dict(MKL_CBWR="COMPATIBLE", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+
+
+def run(out, root=ROOT):
+    env = dict(os.environ, PYTHONPATH=root, **ENV)
+    with open(out, "w") as fh:
+        for name, sheet, path, hmax, kw in CASES:
+            spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax, kw=kw))
+            p = subprocess.run([sys.executable, "-c", CHILD, spec], cwd=root, env=env,
+                               capture_output=True, text=True)
+            if p.returncode:
+                rec = dict(error=p.stderr[-500:])
+            else:
+                rec = json.loads(p.stdout.strip().splitlines()[-1])
+            rec["case"] = name
+            fh.write(json.dumps(rec) + "\n")
+            fh.flush()
+            print(name, rec.get("d"), rec.get("newton_iterations"), rec.get("factorizations"),
+                  flush=True)
+
+
+def compare(a, b):
+    A = {r["case"]: r for r in map(json.loads, open(a))}
+    B = {r["case"]: r for r in map(json.loads, open(b))}
+    tot = [0, 0, 0, 0]
+    print(f"{'case':22s} {'d before':>22s} {'d after':>22s} {'rel':>8s} stable  it  fac -> it  fac")
+    for name in A:
+        x, y = A[name], B.get(name, {})
+        if "d" not in x or "d" not in y:
+            print(name, "missing")
+            continue
+        rel = abs(y["d"] - x["d"]) / max(abs(x["d"]), 1e-300)
+        print(f"{name:22s} {x['d']:22.15g} {y['d']:22.15g} {rel:8.1e} {x['stable']!s:>5}/"
+              f"{y['stable']!s:<5} {x['newton_iterations']:3d} {x['factorizations']:4d} -> "
+              f"{y['newton_iterations']:3d} {y['factorizations']:4d}")
+        for i, k in enumerate(("newton_iterations", "factorizations")):
+            tot[i] += x[k]
+            tot[2 + i] += y[k]
+    print(f"totals: Newton {tot[0]} -> {tot[2]}, factorisations {tot[1]} -> {tot[3]}")
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "--compare":
+        compare(sys.argv[2], sys.argv[3])
+    else:
+        run(sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ROOT)

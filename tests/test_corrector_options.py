@@ -1,0 +1,113 @@
+"""engine.correct's options for the sheet's Newton (a post-step stopping test, a
+divergence floor) and the engine's pseudo-transient iteration, on small problems."""
+import numpy as np
+import pytest
+
+from skfem_sheet.engine import FunctionProblem, Tolerances
+from skfem_sheet.engine.corrector import correct, newton, plain_linearization
+from skfem_sheet.engine.protocol import Counting
+from skfem_sheet.engine.transient import TransientSystem, pseudo_transient
+from skfem_sheet.params import ParameterError
+
+
+def _sqrt2():
+    return FunctionProblem(lambda u, p: u**2 - p[0], lambda u, p: np.diag(2 * u))
+
+
+def test_post_step_test_returns_the_stepped_iterate_without_an_extra_linearisation():
+    """With ``converged`` the test is made at the new iterate after each step:
+    the returned state is that iterate, and the number of linearisations is the
+    number of steps (none is spent only to confirm)."""
+    counter = Counting(_sqrt2())
+    seen = []
+
+    def converged(u, p, fact, extra):
+        seen.append(float(u[0]))
+        # a simplified-Newton correction with the factorisation at hand
+        return abs(fact.solve(-counter.residual(u, p))[0]) <= 1e-12
+
+    res = correct(counter, np.array([1.0]), np.array([2.0]), plain_linearization(counter),
+                  Tolerances(), converged=converged)
+    assert res.converged and res.u[0] == seen[-1]
+    assert abs(res.u[0] - np.sqrt(2.0)) < 1e-12
+    assert res.iterations == len(seen) == res.stats.factorizations
+    # the default rule spends one linearisation more to confirm (from the same start)
+    plain = newton(_sqrt2(), np.array([1.0]), [2.0], tol=Tolerances(rtol=1e-12, utol=1e-12))
+    assert plain.converged and plain.iterations == res.iterations + 1
+
+
+def test_divergence_floor_tolerates_small_oscillating_corrections():
+    """Corrections that grow beyond 10x the first but stay below the floor are
+    not 'diverging' with a floor; without one they are."""
+
+    class Identity:
+        def solve(self, b):
+            return b
+
+    def run(floor):
+        seq = iter([1e-3, 1e-3, 2e-2, 1e-3, 1e-13])  # the corrections, in turn
+
+        def linearize(u, p):
+            d = next(seq)
+            return (0.0 if d < 1e-12 else 1.0), np.array([d]), np.zeros(1), Identity(), None
+        return correct(Counting(_sqrt2()), np.array([0.0]), np.array([0.0]), linearize,
+                       Tolerances(divergence_floor=floor), admissible=lambda u, p: True)
+
+    assert run(None).reason == "diverging"
+    ok = run(0.1)
+    assert ok.converged and ok.iterations == 5
+    with pytest.raises(ParameterError, match="divergence_floor"):
+        Tolerances(divergence_floor=-1.0)
+
+
+class _Well(TransientSystem):
+    """E = u^4/4 - u^2/2 (minima at +-1, saddle at 0), M = 1."""
+
+    def __init__(self):
+        self.factorizations = 0
+
+    def residual(self, u):
+        return u**3 - u
+
+    def tangent(self, u):
+        return 3 * u**2 - 1
+
+    def factorize(self, K, u, sigma):
+        self.factorizations += 1
+        self.a = K + sigma
+        return int(np.sum(self.a < 0))
+
+    def correction(self, r):
+        return -r / self.a
+
+
+def test_pseudo_transient_leaves_the_saddle_for_a_minimum():
+    for u0, target in ((0.05, 1.0), (-0.05, -1.0)):
+        res = pseudo_transient(_Well(), np.array([u0]), utol=1e-12, shift=1.0)
+        assert res.converged and res.u[0] == pytest.approx(target, abs=1e-10)
+    # plain Newton from the same start converges to the saddle
+    plain = newton(FunctionProblem(lambda u, p: u**3 - u, lambda u, p: np.diag(3 * u**2 - 1)),
+                   np.array([0.05]), [0.0])
+    assert plain.converged and abs(plain.u[0]) < 1e-10
+
+
+def test_pseudo_transient_step_is_limited_by_the_radius_and_reports_failure():
+    res = pseudo_transient(_Well(), np.array([5.0]), utol=1e-12, shift=1e-3, radius=0.5)
+    assert res.converged and res.u[0] == pytest.approx(1.0, abs=1e-10)
+    assert max(res.corrections) > 0.5  # the big corrections were cut to the radius
+    short = pseudo_transient(_Well(), np.array([5.0]), utol=1e-12, shift=1e-3, radius=0.5,
+                             max_iterations=3)
+    assert not short.converged and "did not settle" in short.reason
+    assert short.u[0] == pytest.approx(5.0 - 3 * 0.5, abs=1e-12)  # three cut steps
+
+
+def test_pseudo_transient_refuses_an_indefinite_model():
+    class Never(_Well):
+        def factorize(self, K, u, sigma):
+            super().factorize(K, u, sigma)
+            return 1
+
+    sys = Never()
+    res = pseudo_transient(sys, np.array([0.5]), utol=1e-8, shift=1.0)
+    assert not res.converged and "positive definite" in res.reason and res.iterations == 0
+    assert sys.factorizations >= 10

@@ -1,0 +1,89 @@
+"""The engine's load-path driver (engine/loadpath.py): step control, snaps, stops;
+and the one-loop rule: the sheet's Newton and load paths run on the engine."""
+import numpy as np
+import pytest
+
+from skfem_sheet import Sheet, newton
+from skfem_sheet.continuation import follow_path
+from skfem_sheet.engine import corrector, transient
+from skfem_sheet.engine.loadpath import Attempt, RampControl, growth, ramp
+from skfem_sheet.linalg import make_linear_solver
+from skfem_sheet.params import ParameterError
+from skfem_sheet.solve import build_problem
+
+
+def test_easy_steps_grow_to_the_end_in_few_attempts():
+    seen = []
+
+    def attempt(lam, lam_new, snapping):
+        seen.append(lam_new)
+        return Attempt(True, 1)
+
+    out = ramp(0.0, RampControl(initial_step=0.25), attempt)
+    assert out.converged and out.lam == 1.0 and out.rejected == 0
+    assert seen == [0.25, 0.75, 1.0]  # 0.25, then 0.5, then what is left
+
+
+def test_growth_aims_at_the_easy_iteration_count():
+    c = RampControl(grow=2.0, easy_iterations=2)
+    assert [growth(k, c) for k in (1, 2, 3, 4, 5, 9)] == [2.0, 2.0, 1.5, 1.0, 0.7, 0.7]
+
+
+def test_a_wall_without_snapping_fails_below_min_step_at_the_last_accepted_load():
+    def attempt(lam, lam_new, snapping):
+        assert not snapping
+        return Attempt(lam_new <= 0.3, 3, "no equilibrium")
+
+    out = ramp(0.0, RampControl(min_step=1e-3), attempt)
+    assert not out.converged and out.reason == "step below min_step"
+    assert out.last_failure == "no equilibrium"
+    assert 0.3 - 1e-3 <= out.lam <= 0.3 and out.rejected > 5
+
+
+def test_a_stop_ends_the_ramp_at_once():
+    calls = []
+
+    def attempt(lam, lam_new, snapping):
+        calls.append(lam_new)
+        return Attempt(True, 1, stop="unstable end state") if len(calls) == 2 else Attempt(True, 1)
+
+    out = ramp(0.0, RampControl(), attempt)
+    assert not out.converged and out.reason == "unstable end state" and out.lam == 0.25
+    assert len(calls) == 2
+
+
+def test_bad_control_raises():
+    with pytest.raises(ParameterError, match="snap_step"):
+        RampControl(snap_step=0.0)
+    with pytest.raises(ParameterError, match="min_step"):
+        RampControl(initial_step=0.1, min_step=0.2)
+
+
+def test_the_sheet_newton_and_load_path_run_on_the_engine(monkeypatch):
+    """Every Newton iteration of a load path is one of engine.corrector.correct:
+    the iterations counted inside correct's linearisations are all of the solve's."""
+    calls = {"correct": 0, "transient": 0}
+    real_correct, real_transient = corrector.correct, transient.pseudo_transient
+
+    def spy_correct(*a, **k):
+        calls["correct"] += 1
+        return real_correct(*a, **k)
+
+    def spy_transient(*a, **k):
+        calls["transient"] += 1
+        return real_transient(*a, **k)
+
+    monkeypatch.setattr(newton, "correct", spy_correct)
+    monkeypatch.setattr(transient, "pseudo_transient", spy_transient)
+    problem = build_problem(Sheet(length=0.6, tip_width=0.8, curvature=1.5), 0.2, None, 2,
+                            half=True)
+    stats = newton.Stats()
+    out = follow_path(problem, "curvature-first", 1.5, make_linear_solver("auto"), stats=stats)
+    assert out.converged and out.stable is True
+    assert calls["correct"] == len(out.steps) + out.rejected_steps >= 2
+    # a settle from the reference state goes through the engine's transient iteration
+    w0 = np.zeros(problem.ndof)
+    w0[problem.clamp_dofs] = problem.clamp_values(1.5)
+    res = newton.pseudo_transient(problem, w0, 1.0, make_linear_solver("auto"),
+                                  newton.NewtonOptions(rtol=1.0, utol=1e-3), newton.Stats())
+    assert res.converged and calls["transient"] == 1
