@@ -245,7 +245,9 @@ def _ratios(rows, variants):
             same_branch=sum(a.get("branch") == b.get("branch") for a, b in pairs
                             if a.get("converged") and b.get("converged")),
             different_branch=[dict(parameters=a["parameters"], path=a["path"],
-                                   **{v: a.get("branch"), base: b.get("branch")})
+                                   branches={v: a.get("branch"), base: b.get("branch")},
+                                   deflections={v: a.get("deflection"),
+                                                base: b.get("deflection")})
                               for a, b in pairs if a.get("converged") and b.get("converged")
                               and a.get("branch") != b.get("branch")],
             max_rel_polished_deflection_difference=max(
@@ -344,6 +346,8 @@ def main(argv=None):
                     help="MKL/OpenMP/OpenBLAS threads per solve (default: the libraries' own)")
     ap.add_argument("--timeout", type=float, default=None, help="seconds per solve")
     ap.add_argument("--json", default=None, help="write the rows and summary here")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the rows already in --json and run only the missing solves")
     ap.add_argument("--txt", default=None, help="write the printed table here")
     args = ap.parse_args(argv)
     if args.hmax <= 0:
@@ -373,6 +377,11 @@ def main(argv=None):
     cmd = "python benchmarks/solve_sample.py " + " ".join(
         a if " " not in a and "{" not in a else repr(a) for a in (argv or sys.argv[1:]))
     rows = []
+    if args.resume and args.json and os.path.exists(args.json):
+        with open(args.json) as f:
+            rows = json.load(f)["rows"]
+    done = {(r["group"], json.dumps(r["parameters"], sort_keys=True), r["path"], r["variant"])
+            for r in rows}
     t_start = time.perf_counter()
 
     def save():
@@ -400,6 +409,8 @@ def main(argv=None):
     try:
         for group, params, path in plan:
             for name, opts in variants:
+                if (group, json.dumps(params, sort_keys=True), path, name) in done:
+                    continue
                 solve_options = {k: v for k, v in (("start", args.start),
                                                    ("coarse_hmax", args.coarse_hmax))
                                  if v is not None}

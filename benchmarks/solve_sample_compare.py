@@ -44,11 +44,28 @@ def _rel(a, b):
     return abs(a - b) / max(abs(b), 1e-300)
 
 
+#: Two end states are the same equilibrium when their d agree to this after the
+#: tight polish (round-off: 1e-14 seen), or, unpolished, to ``STATE_TOL_RAW``
+#: (the stopping tolerance utol 1e-6 of each).
+STATE_TOL_POLISHED = 1e-9
+STATE_TOL_RAW = 1e-5
+
+
+def _same_state(rel_raw, rel_pol):
+    if rel_pol is not None:
+        return rel_pol <= STATE_TOL_POLISHED
+    return rel_raw is not None and rel_raw <= STATE_TOL_RAW
+
+
 def compare(pairs):
     rows = []
     for b, o in pairs:
         both = bool(b.get("converged")) and bool(o.get("converged"))
+        rel_raw = _rel(o.get("deflection"), b.get("deflection")) if both else None
+        rel_pol = (_rel(o.get("deflection_polished"), b.get("deflection_polished"))
+                   if both else None)
         rows.append(dict(
+            same_state=both and _same_state(rel_raw, rel_pol),
             parameters=b["parameters"], path=b["path"], group=b["group"],
             both_converged=both, base_status=b.get("status"), other_status=o.get("status"),
             base_branch=b.get("branch"), other_branch=o.get("branch"),
@@ -76,6 +93,8 @@ def summary(rows):
     return dict(
         pairs=len(rows), sheets=len({json.dumps(r["parameters"], sort_keys=True) for r in rows}),
         both_converged=len(conv), same_branch=sum(r["same_branch"] for r in conv),
+        same_state=sum(r["same_state"] for r in conv),
+        label_only=sum(r["same_state"] and not r["same_branch"] for r in conv),
         different_branch=[r for r in conv if not r["same_branch"]],
         coarse_used=len(used), fell_back=sum(bool(r["fallback"]) for r in rows),
         fallback_reasons=sorted({r["fallback"].split(" (")[0].split(":")[0] for r in rows
@@ -109,6 +128,10 @@ def lines_of(rows, s, base, other):
     for r in rows:
         p = r["parameters"]
         br = ("same " if r["same_branch"] else "DIFF ") + (r["base_branch"] or "?")[:4]
+        if r["same_state"] and not r["same_branch"]:
+            br = "label " + (r["base_branch"] or "?")[:3]
+        elif not r["same_state"] and r["both_converged"]:
+            br = "STATE " + (r["base_branch"] or "?")[:3]
         if not r["both_converged"]:
             br = f"{r['base_status']}/{r['other_status']}"
         out.append(
@@ -122,7 +145,10 @@ def lines_of(rows, s, base, other):
             f"{_snap(r['other_snaps']):>13s}  {r['fallback']}")
     out.append(
         f"{s['pairs']} pairs ({s['sheets']} sheets), both converged {s['both_converged']}; "
-        f"same branch {s['same_branch']} of {s['both_converged']}; the coarse state used in "
+        f"same branch label {s['same_branch']} of {s['both_converged']}, same end state (d "
+        f"equal to {STATE_TOL_POLISHED:g} after polishing, else {STATE_TOL_RAW:g}) "
+        f"{s['same_state']} ({s['label_only']} with the same state under the other label: "
+        f"'label' below); the coarse state used in "
         f"{s['coarse_used']}, fell back to the fine path in {s['fell_back']} "
         f"({'; '.join(s['fallback_reasons']) or '-'})")
     out.append(
@@ -137,8 +163,12 @@ def lines_of(rows, s, base, other):
         f"{s['median_other_coarse_fact']:g}); wall median {base} {s['median_base_wall']:.1f} s, "
         f"{other} {s['median_other_wall']:.1f} s (median ratio {s['median_wall_ratio']:.2f})")
     for r in s["different_branch"]:
-        out.append(f"  DIFFERENT BRANCH: {r['parameters']} {r['path']}: {base} {r['base_branch']}"
-                   f", {other} {r['other_branch']} (fallback: {r['fallback'] or 'none'})")
+        what = "same state, other label" if r["same_state"] else "DIFFERENT STATE"
+        out.append(f"  {what}: {r['parameters']} {r['path']}: {base} {r['base_branch']} d "
+                   f"{r['base_d']:.6f}, {other} {r['other_branch']} d {r['other_d']:.6f} "
+                   f"(fallback: {r['fallback'] or 'none'})")
+    diff = [r for r in rows if r["both_converged"] and not r["same_state"]]
+    out.append(f"end states that differ: {len(diff)}")
     return out
 
 

@@ -364,7 +364,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         Newton fails within :data:`FINISH_ITERATIONS` or moves a node by more
         than ``0.1 max(1, L)`` (a jump of branch), or the fine end state is
         not known to be stable.  Not the default: see
-        ``benchmarks/results/coarse_to_fine_hmax0.06.txt`` for how often the
+        ``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt`` for how often the
         branch and ``d`` agree with the load path on the fine mesh.
     coarse_hmax : float
         Mesh size of the coarse path (default :data:`COARSE_HMAX`); with

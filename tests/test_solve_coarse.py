@@ -83,7 +83,8 @@ def test_a_failed_fine_finish_falls_back(monkeypatch):
     monkeypatch.setattr(solve_module, "transfer", lambda old, w, new: np.zeros(new.ndof))
     back = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
     assert back.coarse_fallback.startswith("fine Newton from the coarse state failed")
-    assert back.deflection == full.deflection and back.converged
+    # (the same path; the fine solver's earlier use may change round-off)
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-12) and back.converged
     assert back.factorizations == full.factorizations + 1
     assert back.coarse_factorizations > 0
 
