@@ -363,9 +363,16 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         near a fold the meshes may disagree about the branch), or the fine
         Newton fails within :data:`FINISH_ITERATIONS` or moves a node by more
         than ``0.1 max(1, L)`` (a jump of branch), or the fine end state is
-        not known to be stable.  Not the default: see
-        ``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt`` for how often the
-        branch and ``d`` agree with the load path on the fine mesh.
+        not known to be stable.  Measured against the fine path at hmax 0.06
+        (``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt``): the
+        same end state on every sampled sheet and path (d to round-off after a
+        tight solve), but the ``branch`` label may differ where one mesh
+        snaps and the other reaches the same state without a fold (the label
+        is the path's history); the fold of a branch can vanish between the
+        meshes, which no rule on the coarse path sees.  Not the default for
+        that reason, and because sweep journals key on the options that
+        differ from the defaults (a new default would silently reuse rows
+        solved the old way).
     coarse_hmax : float
         Mesh size of the coarse path (default :data:`COARSE_HMAX`); with
         ``coarse_hmax <= hmax`` the load path runs on the mesh ``hmax``.
