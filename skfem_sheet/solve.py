@@ -40,9 +40,10 @@ COARSE_HMAX = 0.1
 LATE_SNAP = 0.25
 
 #: Newton iterations allowed to finish a transferred coarse state on the fine
-#: mesh (at least ``NewtonOptions.max_iterations``); beyond them the fine
-#: path runs instead.
-FINISH_ITERATIONS = 10
+#: mesh (at least ``NewtonOptions.max_iterations``); beyond them the state is
+#: taken through a mesh between the two, and if that fails too the fine path
+#: runs instead.
+FINISH_ITERATIONS = 8
 
 
 class SolveError(RuntimeError):
@@ -119,7 +120,7 @@ class Result:
         Why the coarse path was not used and the load path ran on the fine
         mesh instead (empty if it was used, or not asked for).
     coarse_factorizations, coarse_newton_iterations : int
-        Work on the coarse mesh (0 without one); ``factorizations`` and
+        Work on the coarse mesh and an intermediate one (0 without them); ``factorizations`` and
         ``newton_iterations`` count the mesh ``hmax`` only (including a
         finishing attempt that fell back), ``wall_time_s`` includes the
         coarse path.
@@ -361,8 +362,11 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         mesh ``hmax`` instead (``coarse_fallback`` says why) when the coarse
         path failed, or snapped late in its last phase (:data:`LATE_SNAP`:
         near a fold the meshes may disagree about the branch), or the fine
-        Newton fails within :data:`FINISH_ITERATIONS` or moves a node by more
-        than ``0.1 max(1, L)`` (a jump of branch), or the fine end state is
+        Newton fails within :data:`FINISH_ITERATIONS` also after a detour
+        through the mesh ``sqrt(coarse_hmax hmax)`` (a step
+        ``("intermediate", 1.0, iterations)``, its work counted with the
+        coarse mesh's), or it moves a node by more than ``0.1 max(1, L)``
+        from the coarse state (a jump of branch), or the fine end state is
         not known to be stable.  Measured against the fine path at hmax 0.06
         (``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt``): the
         same end state on every sampled sheet and path (d to round-off after a
@@ -449,7 +453,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                                          bool(symmetric), 0)
                 out, fallback = _coarse_to_fine(
                     problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
-                    step_options, stats, cstats, report)
+                    step_options, stats, cstats, report, quadrature_order)
                 if out is not None and series is not None:
                     series.on_step(problem, out.w, out.kappa, out.g)
         if out is None:
@@ -521,7 +525,7 @@ def _fine_verdict(problem, linear, w, stats):
 
 
 def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
-                    step_options, stats, cstats, report):
+                    step_options, stats, cstats, report, quadrature_order):
     """The load path on ``cproblem``, finished on ``problem`` at full load.
 
     Returns ``(outcome, "")`` if the coarse path's end state, transferred and
@@ -543,15 +547,33 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
     if late:
         return None, (f"coarse path snapped late in its {last} phase (at {max(late):.3g} "
                       f"of its range)")
-    w0 = transfer(cproblem, coarse.w, problem)
-    w0[problem.clamp_dofs] = problem.clamp_values(coarse.kappa)
     scale = max(1.0, problem.sheet.length)
     opts = replace(newton_options,
                    max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
-    res = newton(problem, w0, coarse.g, linear, opts, stats,
-                 max_first_increment=scale * step_options.max_correction)
+
+    def finish(src, w_src, dst, lin, st):
+        w = transfer(src, w_src, dst)
+        w[dst.clamp_dofs] = dst.clamp_values(coarse.kappa)
+        return newton(dst, w, coarse.g, lin, opts, st,
+                      max_first_increment=scale * step_options.max_correction), w
+
+    res, w0 = finish(cproblem, coarse.w, problem, linear, stats)
+    steps = tuple(coarse.steps)
     if not res.converged:
-        return None, f"fine Newton from the coarse state failed: {res.reason}"
+        # a coarse state too far from the fine equilibrium for Newton: through
+        # a mesh between the two (its work counted with the coarse mesh's)
+        h_mid = float(np.sqrt(cproblem.sheet_mesh.hmax * problem.sheet_mesh.hmax))
+        why = f"fine Newton from the coarse state failed: {res.reason}"
+        mid = build_problem(problem.sheet, h_mid, None, quadrature_order,
+                            bool(problem.sheet_mesh.half), 0)
+        rm, wm = finish(cproblem, coarse.w, mid, clinear, cstats)
+        nu_m = mid.nu_dof
+        if not rm.converged or np.abs(rm.w[:nu_m] - wm[:nu_m]).max() > 0.1 * scale:
+            return None, f"{why}; on hmax {h_mid:.3g} too: {rm.reason or 'moved'}"
+        res, _ = finish(mid, rm.w, problem, linear, stats)
+        if not res.converged:
+            return None, f"{why}; from hmax {h_mid:.3g} too: {res.reason}"
+        steps += (("intermediate", 1.0, rm.iterations),)
     nu = problem.nu_dof
     moved = float(np.abs(res.w[:nu] - w0[:nu]).max())
     if moved > 0.1 * scale:
@@ -563,7 +585,7 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
         return None, f"fine end state {what}"
     report(1.0)
     return _Finished(w=res.w, kappa=coarse.kappa, g=coarse.g,
-                     steps=tuple(coarse.steps) + (("fine", 1.0, res.iterations),),
+                     steps=steps + (("fine", 1.0, res.iterations),),
                      snaps=tuple(coarse.snaps), rejected_steps=coarse.rejected_steps,
                      stable=stable, negative_eigenvalues=k), ""
 

@@ -89,6 +89,32 @@ def test_a_failed_fine_finish_falls_back(monkeypatch):
     assert back.coarse_factorizations > 0
 
 
+def test_a_coarse_state_too_far_for_newton_goes_through_an_intermediate_mesh(monkeypatch):
+    # the first Newton finish (coarse -> fine) is made to fail; the detour
+    # coarse -> mid -> fine must then find the fine path's equilibrium, with
+    # the mid mesh's work counted as coarse
+    from skfem_sheet.newton import NewtonResult
+
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.1)
+    real, meshes = solve_module.newton, []
+
+    def fails_once(problem, w, *args, **kwargs):
+        meshes.append(problem.sheet_mesh.hmax)
+        if len(meshes) == 1:
+            return NewtonResult(w, False, 0, "max iterations")
+        return real(problem, w, *args, **kwargs)
+
+    monkeypatch.setattr(solve_module, "newton", fails_once)
+    via = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
+    assert meshes == pytest.approx([0.1, np.sqrt(0.02), 0.1])
+    assert via.coarse_fallback == "" and via.converged and via.stable is True
+    assert [s[0] for s in via.steps[-2:]] == ["intermediate", "fine"]
+    assert via.factorizations == via.steps[-1][2]
+    assert via.coarse_factorizations > via.steps[-2][2] > 0
+    assert via.deflection == pytest.approx(full.deflection, rel=1e-4)
+
+
 @pytest.mark.parametrize("kwargs, name", [
     (dict(start="fine"), "start"), (dict(start="coarse", coarse_hmax=0.0), "coarse_hmax"),
     (dict(coarse_hmax=-1.0), "coarse_hmax")])
