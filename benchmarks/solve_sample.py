@@ -3,7 +3,8 @@
     python benchmarks/solve_sample.py [--hmax 0.03] [--n 12] [--seed 16]
         [--json out.json] [--txt out.txt] [--no-cases] [--cases-only]
         [--case rectangle] [--paths curvature-first,gravity-first]
-        [--variant NAME=JSON ...] [--threads N] [--timeout S]
+        [--variant NAME=JSON ...] [--start path|coarse] [--coarse-hmax H]
+        [--polish] [--threads N] [--timeout S]
 
 A benchmark that cannot be tuned to: ``--n`` sheets drawn uniformly (seeded)
 from L/a in [1, 2.2], b/a in [0.6, 1], a/R in [1.5, 5] -- inside and near the
@@ -22,9 +23,19 @@ over all solves under ``summary_cases`` and ``summary_all``.
 ``--variant NAME=JSON`` (repeatable) runs every solve once per variant, in
 turn (old, new, old, new, ...: the machine load is shared fairly), with
 ``JSON`` passed as options to the linear solver, e.g.
-``--variant new={} --variant old='{"reproducible": false}'``; the summary
-then gives, per variant, the median ratio of its wall and linear-solver time
-to the first variant's over the paired solves.
+``--variant new={} --variant old='{"reproducible": false}'``, except the keys
+``start`` and ``coarse_hmax``, which are passed to ``solve`` (e.g.
+``--variant path='{"start": "path"}' --variant coarse='{"start": "coarse"}'``);
+the summary then gives, per variant, the median ratio of its wall and
+linear-solver time to the first variant's over the paired solves, and
+whether the branch and d agree.  ``--start``/``--coarse-hmax`` set those
+``solve`` options for every solve.  With ``start="coarse"``
+``factorizations`` counts the fine mesh's only and ``coarse_factorizations``
+the coarse path's (the summary gives both and their sum); the wall time
+includes the coarse path.  ``--polish`` solves every end state once more by
+Newton to ``rtol = 1e-9``, ``utol = 1e-10`` (not timed, not counted) and
+records its d as ``deflection_polished``: two solves on one branch then
+agree to round-off, whatever the tolerance they stopped at.
 
 Timings are only meaningful on an otherwise idle machine: the load average
 at the start is recorded and a warning printed if it is high.
@@ -99,14 +110,15 @@ def _child(spec_json, out_path):
         solve_module.make_linear_solver = recording
         rss0 = _peak_rss_bytes()
         r = solve(Sheet(**spec["parameters"]), path=spec["path"], hmax=spec["hmax"],
-                  on_failure="return")
+                  on_failure="return", **(spec.get("solve_options") or {}))
     except Exception as err:  # noqa: BLE001 - recorded as a crash of this solve
         import traceback
 
         rec.update(status="crash", error=f"{type(err).__name__}: {err}",
                    traceback=traceback.format_exc(), peak_rss_gb=_peak_rss_bytes() / GB)
     else:
-        counts = made[-1].counts.as_dict() if made and hasattr(made[-1], "counts") else {}
+        # the first solver made is the one of the mesh hmax (a coarse path makes its own)
+        counts = made[0].counts.as_dict() if made and hasattr(made[0], "counts") else {}
         back = getattr(r, "back_substitutions", None)
         if back is None:
             back = counts.get("back_substitutions")
@@ -121,8 +133,25 @@ def _child(spec_json, out_path):
             linear_share=lin / wall if wall > 0 else None,
             peak_rss_gb=_peak_rss_bytes() / GB, rss_before_solve_gb=rss0 / GB,
             deflection=float(r.deflection), branch=r.branch, stable=r.stable,
-            snaps=len(r.snaps))
+            snaps=len(r.snaps), snap_at=[[str(x[0]), float(x[1])] for x in r.snaps],
+            start=getattr(r, "start", "path"),
+            coarse_factorizations=int(getattr(r, "coarse_factorizations", 0)),
+            coarse_newton_iterations=int(getattr(r, "coarse_newton_iterations", 0)),
+            coarse_fallback=getattr(r, "coarse_fallback", ""))
+        if spec.get("polish") and r.converged:
+            rec["deflection_polished"] = _polished_deflection(r)
     atomic_write(out_path, dumps_json(rec))
+
+
+def _polished_deflection(r):
+    """d of ``r``'s end state solved once more by Newton to a tight tolerance."""
+    from skfem_sheet.analyses.observables import tip_deflection
+    from skfem_sheet.linalg import make_linear_solver
+    from skfem_sheet.newton import NewtonOptions, Stats, newton
+
+    res = newton(r.problem, r.w, r.gravity, make_linear_solver(r.solver),
+                 NewtonOptions(rtol=1e-9, utol=1e-10, max_iterations=6), Stats())
+    return float(tip_deflection(r.problem, res.w)) if res.converged else None
 
 
 def run_one(spec, threads=None, timeout=None):
@@ -168,7 +197,14 @@ def summarise(rows):
     mem = [r["peak_rss_gb"] for r in done if r.get("peak_rss_gb") is not None]
     share = [r["linear_share"] for r in done if r.get("linear_share") is not None]
     med = (lambda v: float(statistics.median(v)) if v else None)
+    coarse = [r.get("coarse_factorizations") or 0 for r in done]
+    total = [f + c for f, c in zip(fact, coarse)]
     return dict(
+        median_coarse_factorizations=med(coarse), max_coarse_factorizations=max(coarse)
+        if coarse else None, median_total_factorizations=med(total),
+        max_total_factorizations=max(total) if total else None,
+        n_coarse_fallback=sum(bool(r.get("coarse_fallback")) for r in done
+                              if r.get("start") == "coarse"),
         n=len(rows), n_failed=sum(r.get("status") != "converged" for r in rows),
         n_stable_unknown=sum(r.get("status") == "converged" and r.get("stable") is None
                              for r in rows),
@@ -204,7 +240,21 @@ def _ratios(rows, variants):
                                 for a, b in pairs),
             max_rel_deflection_difference=max(
                 (abs(a["deflection"] - b["deflection"]) / max(abs(b["deflection"]), 1e-300)
-                 for a, b in pairs), default=None))
+                 for a, b in pairs), default=None),
+            both_converged=sum(a.get("converged") and b.get("converged") for a, b in pairs),
+            same_branch=sum(a.get("branch") == b.get("branch") for a, b in pairs
+                            if a.get("converged") and b.get("converged")),
+            different_branch=[dict(parameters=a["parameters"], path=a["path"],
+                                   branches={v: a.get("branch"), base: b.get("branch")},
+                                   deflections={v: a.get("deflection"),
+                                                base: b.get("deflection")})
+                              for a, b in pairs if a.get("converged") and b.get("converged")
+                              and a.get("branch") != b.get("branch")],
+            max_rel_polished_deflection_difference=max(
+                (abs(a["deflection_polished"] - b["deflection_polished"])
+                 / max(abs(b["deflection_polished"]), 1e-300) for a, b in pairs
+                 if a.get("deflection_polished") is not None
+                 and b.get("deflection_polished") is not None), default=None))
     return {"baseline": base, **out}
 
 
@@ -213,7 +263,7 @@ def table(rows, variants):
     head = (f"{'group':9s} {'L/a':>6s} {'b/a':>6s} {'a/R':>6s} {'path':15s} "
             + (f"{'variant':{wv}s} " if len(variants) > 1 else "")
             + f"{'dofs':>6s} {'d/a':>9s} {'branch':>9s} {'stable':>6s} {'newton':>6s} "
-            f"{'fact':>5s} {'backsub':>7s} {'wall s':>7s} {'lin %':>5s} {'peak GB':>7s}  status")
+            f"{'fact':>5s} {'cfact':>5s} {'backsub':>7s} {'wall s':>7s} {'lin %':>5s} {'peak GB':>7s}  status")
     lines = [head, "-" * len(head)]
     for r in rows:
         p = r["parameters"]
@@ -226,10 +276,12 @@ def table(rows, variants):
             + f"{fmt(r.get('dofs'), '6d'):>6s} {fmt(r.get('deflection'), '9.5f'):>9s} "
             f"{fmt(branch, 's'):>9s} {fmt(r.get('stable'), '', 'unknown'):>6s} "
             f"{fmt(r.get('newton_iterations'), '6d'):>6s} {fmt(r.get('factorizations'), '5d'):>5s} "
+            f"{fmt(r.get('coarse_factorizations'), '5d'):>5s} "
             f"{fmt(r.get('back_substitutions'), '7d'):>7s} {fmt(r.get('wall_time_s'), '7.1f'):>7s} "
             f"{fmt(None if share is None else 100 * share, '5.1f'):>5s} "
             f"{fmt(r.get('peak_rss_gb'), '7.3f'):>7s}  {r.get('status')}"
-            + ("" if r.get("status") == "converged" else f" {r.get('message') or r.get('error')}"))
+            + ("" if r.get("status") == "converged" else f" {r.get('message') or r.get('error')}")
+            + (f" [fell back: {r['coarse_fallback']}]" if r.get("coarse_fallback") else ""))
     return lines
 
 
@@ -244,7 +296,14 @@ def _summary_lines(name, s):
             f"s, max {fmt(s['max_wall_s'], '.1f')} s; linear-solver share median "
             f"{fmt(share, '.0f')}"
             f"%; peak memory max {fmt(s['max_peak_rss_gb'], '.3f')} GB; factorisations with "
-            f"perturbed pivots {s['perturbed_factorizations']}"]
+            f"perturbed pivots {s['perturbed_factorizations']}"
+            + ("" if not s["max_coarse_factorizations"] else
+               f"; coarse-path factorisations median "
+               f"{fmt(s['median_coarse_factorizations'], 'g')}, max "
+               f"{fmt(s['max_coarse_factorizations'], 'g')}; fine + coarse median "
+               f"{fmt(s['median_total_factorizations'], 'g')}, max "
+               f"{fmt(s['max_total_factorizations'], 'g')}; fell back to the fine path "
+               f"{s['n_coarse_fallback']}")]
 
 
 def _parse_variant(text):
@@ -260,6 +319,10 @@ def _parse_variant(text):
     return name, opts
 
 
+#: Keys of a ``--variant`` passed to ``solve`` (the others go to the linear solver).
+SOLVE_KEYS = ("start", "coarse_hmax")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--hmax", type=float, default=0.03, help="mesh size (default 0.03)")
@@ -273,10 +336,18 @@ def main(argv=None):
                     help="only these solve_speed cases (repeatable)")
     ap.add_argument("--variant", type=_parse_variant, action="append",
                     help="NAME=JSON linear-solver options; several: run alternately")
+    ap.add_argument("--start", choices=("path", "coarse"), default=None,
+                    help="solve's start for every solve (default: solve's own)")
+    ap.add_argument("--coarse-hmax", type=float, default=None,
+                    help="solve's coarse_hmax for every solve (default: solve's own)")
+    ap.add_argument("--polish", action="store_true",
+                    help="also record d after a tight Newton solve from the end state")
     ap.add_argument("--threads", type=int, default=None,
                     help="MKL/OpenMP/OpenBLAS threads per solve (default: the libraries' own)")
     ap.add_argument("--timeout", type=float, default=None, help="seconds per solve")
     ap.add_argument("--json", default=None, help="write the rows and summary here")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the rows already in --json and run only the missing solves")
     ap.add_argument("--txt", default=None, help="write the printed table here")
     args = ap.parse_args(argv)
     if args.hmax <= 0:
@@ -306,6 +377,11 @@ def main(argv=None):
     cmd = "python benchmarks/solve_sample.py " + " ".join(
         a if " " not in a and "{" not in a else repr(a) for a in (argv or sys.argv[1:]))
     rows = []
+    if args.resume and args.json and os.path.exists(args.json):
+        with open(args.json) as f:
+            rows = json.load(f)["rows"]
+    done = {(r["group"], json.dumps(r["parameters"], sort_keys=True), r["path"], r["variant"])
+            for r in rows}
     t_start = time.perf_counter()
 
     def save():
@@ -313,7 +389,9 @@ def main(argv=None):
         cases = [r for r in rows if r["group"] != "sample"]
         doc = dict(benchmark="solve_sample", command=cmd, machine=info,
                    settings=dict(hmax=args.hmax, n=args.n, seed=args.seed, paths=paths,
-                                 box=BOX, variants=dict(variants), threads=args.threads),
+                                 box=BOX, variants=dict(variants), threads=args.threads,
+                                 start=args.start, coarse_hmax=args.coarse_hmax,
+                                 polish=args.polish),
                    rows=rows)
         first = [r for r in sample if r["variant"] == names[0]]
         doc.update(summarise(first))
@@ -331,7 +409,16 @@ def main(argv=None):
     try:
         for group, params, path in plan:
             for name, opts in variants:
-                spec = dict(parameters=params, path=path, hmax=args.hmax, linear_options=opts)
+                if (group, json.dumps(params, sort_keys=True), path, name) in done:
+                    continue
+                solve_options = {k: v for k, v in (("start", args.start),
+                                                   ("coarse_hmax", args.coarse_hmax))
+                                 if v is not None}
+                solve_options.update({k: v for k, v in opts.items() if k in SOLVE_KEYS})
+                spec = dict(parameters=params, path=path, hmax=args.hmax,
+                            linear_options={k: v for k, v in opts.items()
+                                            if k not in SOLVE_KEYS},
+                            solve_options=solve_options, polish=args.polish)
                 rec = run_one(spec, threads=args.threads, timeout=args.timeout)
                 rec.pop("spec", None)
                 rows.append(dict(group=group, parameters=params, path=path, variant=name,
@@ -366,7 +453,12 @@ def main(argv=None):
                          f"wall ratio {fmt(q['median_wall_ratio'], '.3f')}, median linear-solver"
                          f" time ratio {fmt(q['median_linear_ratio'], '.3f')}, same Newton "
                          f"iterations: {q['same_iterations']}, largest relative difference in "
-                         f"d: {fmt(q['max_rel_deflection_difference'], '.2e')}")
+                         f"d: {fmt(q['max_rel_deflection_difference'], '.2e')} (after polishing: "
+                         f"{fmt(q['max_rel_polished_deflection_difference'], '.2e')}); same "
+                         f"branch in {q['same_branch']} of {q['both_converged']} pairs where "
+                         f"both converged")
+            for x in q["different_branch"]:
+                lines.append(f"  different branch: {x}")
     text = "\n".join(lines) + "\n"
     print(text)
     if args.txt:

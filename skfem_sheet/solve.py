@@ -2,26 +2,48 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import ClassVar
 
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .continuation import PATHS, StepOptions, follow_path
+from .analyses.stability import stability
+from .analyses.transfer import transfer
+from .continuation import PATHS, StepOptions, follow_path, load_phases
 from .io import write_result
-from .linalg import make_linear_solver
+from .linalg import LinearSolverError, make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
-from .newton import NewtonOptions, Stats
+from .newton import NewtonOptions, Stats, newton, timed
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .version import __version__
 
-__all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS"]
+__all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS", "STARTS",
+           "COARSE_HMAX", "LATE_SNAP", "FINISH_ITERATIONS"]
 
 #: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
 MAX_DOFS = 1_500_000
+
+#: Ways :func:`solve` reaches full load: the load path on the mesh asked for
+#: (``"path"``), or the load path on a coarse mesh finished on it (``"coarse"``).
+STARTS = ("path", "coarse")
+
+#: Default mesh size of the coarse load path of ``start="coarse"``.
+COARSE_HMAX = 0.1
+
+#: A coarse path that snapped in its last phase at ``lam >= 1 - LATE_SNAP`` of
+#: that phase (or at full load, leaving an unstable end state) does not decide
+#: the branch of the fine mesh: its fold may lie on the other side of full
+#: load there, and ``start="coarse"`` runs the fine path instead.
+LATE_SNAP = 0.25
+
+#: Newton iterations allowed to finish a transferred coarse state on the fine
+#: mesh (at least ``NewtonOptions.max_iterations``); beyond them the state is
+#: taken through a mesh between the two, and if that fails too the fine path
+#: runs instead.
+FINISH_ITERATIONS = 8
 
 
 class SolveError(RuntimeError):
@@ -89,6 +111,19 @@ class Result:
     refine : int
         Nested refinements of the mesh made at ``hmax`` (``layers`` counts
         the layers after refinement).
+    start : str
+        ``start`` asked of :func:`solve` (``"path"`` or ``"coarse"``).
+    coarse_hmax : float
+        Mesh size of the coarse path of ``start="coarse"`` (as asked; no
+        coarse path runs with ``start="path"``).
+    coarse_fallback : str
+        Why the coarse path was not used and the load path ran on the fine
+        mesh instead (empty if it was used, or not asked for).
+    coarse_factorizations, coarse_newton_iterations : int
+        Work on the coarse mesh and an intermediate one (0 without them); ``factorizations`` and
+        ``newton_iterations`` count the mesh ``hmax`` only (including a
+        finishing attempt that fell back), ``wall_time_s`` includes the
+        coarse path.
     """
 
     sheet: Sheet
@@ -119,6 +154,11 @@ class Result:
     negative_eigenvalues: object = None
     refine: int = 0
     back_substitutions: int = 0
+    start: str = "path"
+    coarse_hmax: float = COARSE_HMAX
+    coarse_fallback: str = ""
+    coarse_factorizations: int = 0
+    coarse_newton_iterations: int = 0
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -174,6 +214,11 @@ class Result:
         ("rejected_steps", "int", lambda r: r.rejected_steps),
         ("linear_solver", "str", lambda r: r.solver),
         ("layers_used", "int", lambda r: r.layers),
+        ("start", "str", lambda r: r.start),
+        ("coarse_hmax", "float", lambda r: r.coarse_hmax),
+        ("coarse_fallback", "str", lambda r: r.coarse_fallback),
+        ("coarse_factorizations", "int", lambda r: r.coarse_factorizations),
+        ("coarse_newton_iterations", "int", lambda r: r.coarse_newton_iterations),
     )
 
     def to_record(self) -> dict:
@@ -267,7 +312,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           symmetric: bool = True,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
-          on_failure: str = "raise", progress: bool = False, series=None) -> Result:
+          on_failure: str = "raise", progress: bool = False, series=None,
+          start: str = "path", coarse_hmax: float = COARSE_HMAX) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -304,6 +350,36 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     series : skfem_sheet.io.Series, optional
         Collects the state of every accepted load step (``series.write``
         writes them as a ParaView series); nothing is kept when None.
+        With ``start="coarse"`` only the states on the mesh ``hmax``.
+    start : {"path", "coarse"}
+        ``"path"`` (default): the load path on the mesh ``hmax``.
+        ``"coarse"``: the load path on the mesh ``coarse_hmax`` (seconds),
+        its end state transferred to the mesh ``hmax``
+        (:func:`~skfem_sheet.analyses.transfer.transfer`) and finished there
+        by Newton at full load, keeping the branch the coarse path selected
+        (``snaps``, ``steps`` and ``branch`` are then the coarse path's, the
+        last step ``("fine", 1.0, iterations)``).  The load path runs on the
+        mesh ``hmax`` instead (``coarse_fallback`` says why) when the coarse
+        path failed, or snapped late in its last phase (:data:`LATE_SNAP`:
+        near a fold the meshes may disagree about the branch), or the fine
+        Newton fails within :data:`FINISH_ITERATIONS` also after a detour
+        through the mesh ``sqrt(coarse_hmax hmax)`` (a step
+        ``("intermediate", 1.0, iterations)``, its work counted with the
+        coarse mesh's), or it moves a node by more than ``0.1 max(1, L)``
+        from the coarse state (a jump of branch), or the fine end state is
+        not known to be stable.  Measured against the fine path at hmax 0.06
+        (``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt``): the
+        same end state on every sampled sheet and path (d to round-off after a
+        tight solve), but the ``branch`` label may differ where one mesh
+        snaps and the other reaches the same state without a fold (the label
+        is the path's history); the fold of a branch can vanish between the
+        meshes, which no rule on the coarse path sees.  Not the default for
+        that reason, and because sweep journals key on the options that
+        differ from the defaults (a new default would silently reuse rows
+        solved the old way).
+    coarse_hmax : float
+        Mesh size of the coarse path (default :data:`COARSE_HMAX`); with
+        ``coarse_hmax <= hmax`` the load path runs on the mesh ``hmax``.
 
     Returns
     -------
@@ -319,6 +395,9 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
     if path not in PATHS:
         raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+    if start not in STARTS:
+        raise ParameterError(f"start must be one of {', '.join(STARTS)}, got {start!r}")
+    coarse_hmax = check_range("coarse_hmax", coarse_hmax, 0, None, lo_open=True)
     if on_failure not in ("raise", "return"):
         raise ParameterError(f"on_failure must be 'raise' or 'return', got {on_failure!r}")
     if quadrature_order not in (2, 3, 4):
@@ -362,11 +441,26 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
             bar.set_postfix(newton=stats.newton_iterations, refresh=False)
             bar.refresh()
 
+    cstats = Stats()
+    fallback = ""
+    out = None
     try:
-        out = follow_path(problem, path, sheet.curvature, linear,
-                          newton_options=newton_options, step_options=step_options,
-                          stats=stats, progress=report,
-                          on_step=None if series is None else series.on_step)
+        if start == "coarse":
+            if coarse_hmax <= hmax:
+                fallback = f"coarse_hmax {coarse_hmax:g} is not coarser than hmax {hmax:g}"
+            else:
+                cproblem = build_problem(sheet, coarse_hmax, None, quadrature_order,
+                                         bool(symmetric), 0)
+                out, fallback = _coarse_to_fine(
+                    problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
+                    step_options, stats, cstats, report, quadrature_order)
+                if out is not None and series is not None:
+                    series.on_step(problem, out.w, out.kappa, out.g)
+        if out is None:
+            out = follow_path(problem, path, sheet.curvature, linear,
+                              newton_options=newton_options, step_options=step_options,
+                              stats=stats, progress=report,
+                              on_step=None if series is None else series.on_step)
     finally:
         if bar is not None:
             bar.close()
@@ -388,10 +482,112 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
         branch=_branch(path, out.snaps), stable=stable, negative_eigenvalues=n_neg,
         refine=int(refine), problem=problem, w=w,
-        back_substitutions=_back_substitutions(linear))
+        back_substitutions=_back_substitutions(linear), start=start,
+        coarse_hmax=coarse_hmax, coarse_fallback=fallback,
+        coarse_factorizations=cstats.factorizations,
+        coarse_newton_iterations=cstats.newton_iterations)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
+
+
+@dataclass(frozen=True)
+class _Finished:
+    """The end state of a coarse path finished on the fine mesh (the fields of
+    :class:`~skfem_sheet.continuation.PathOutcome` that :func:`solve` reads)."""
+
+    w: np.ndarray
+    kappa: float
+    g: float
+    steps: tuple
+    snaps: tuple
+    rejected_steps: int
+    stable: object
+    negative_eigenvalues: object
+    converged: bool = True
+    reason: str = ""
+
+
+def _fine_verdict(problem, linear, w, stats):
+    """``(stable, k)`` at ``w`` from the last factorised tangent, or from the
+    tangent at ``w`` if that one cannot tell (:func:`~skfem_sheet.analyses.
+    stability.stability`; ``(None, None)`` if neither can)."""
+    verdict = stability(problem, linear)
+    if verdict[0] is not None:
+        return verdict
+    K = timed(stats, "assembly_s", problem.tangent, w)
+    try:
+        timed(stats, "linear_solve_s", linear.factorize, K, w)
+    except LinearSolverError:
+        return None, None
+    stats.factorizations += 1
+    return stability(problem, linear)
+
+
+def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
+                    step_options, stats, cstats, report, quadrature_order):
+    """The load path on ``cproblem``, finished on ``problem`` at full load.
+
+    Returns ``(outcome, "")`` if the coarse path's end state, transferred and
+    solved by Newton on ``problem``, is a stable equilibrium near it on the
+    branch the coarse path selected; else ``(None, why)`` (the caller runs the
+    load path on ``problem``).  ``stats`` counts the fine mesh's work (also of
+    an attempt that fell back), ``cstats`` the coarse mesh's.
+    """
+    clinear = make_linear_solver(solver)
+    if getattr(clinear, "needs_layout", False):
+        clinear.attach(cproblem.saddle_point_layout())
+    coarse = follow_path(cproblem, path, kappa, clinear, newton_options=newton_options,
+                         step_options=step_options, stats=cstats,
+                         progress=lambda f: report(0.9 * f))
+    if not coarse.converged:
+        return None, f"coarse path failed: {coarse.reason}"
+    last = load_phases(path, kappa)[-1][0]
+    late = [lam for phase, lam, _, _ in coarse.snaps if phase == last and lam >= 1 - LATE_SNAP]
+    if late:
+        return None, (f"coarse path snapped late in its {last} phase (at {max(late):.3g} "
+                      f"of its range)")
+    scale = max(1.0, problem.sheet.length)
+    opts = replace(newton_options,
+                   max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
+
+    def finish(src, w_src, dst, lin, st):
+        w = transfer(src, w_src, dst)
+        w[dst.clamp_dofs] = dst.clamp_values(coarse.kappa)
+        return newton(dst, w, coarse.g, lin, opts, st,
+                      max_first_increment=scale * step_options.max_correction), w
+
+    res, w0 = finish(cproblem, coarse.w, problem, linear, stats)
+    steps = tuple(coarse.steps)
+    if not res.converged:
+        # a coarse state too far from the fine equilibrium for Newton: through
+        # a mesh between the two (its work counted with the coarse mesh's)
+        h_mid = float(np.sqrt(cproblem.sheet_mesh.hmax * problem.sheet_mesh.hmax))
+        why = f"fine Newton from the coarse state failed: {res.reason}"
+        mid = build_problem(problem.sheet, h_mid, None, quadrature_order,
+                            bool(problem.sheet_mesh.half), 0)
+        rm, wm = finish(cproblem, coarse.w, mid, clinear, cstats)
+        nu_m = mid.nu_dof
+        if not rm.converged or np.abs(rm.w[:nu_m] - wm[:nu_m]).max() > 0.1 * scale:
+            return None, f"{why}; on hmax {h_mid:.3g} too: {rm.reason or 'moved'}"
+        res, _ = finish(mid, rm.w, problem, linear, stats)
+        if not res.converged:
+            return None, f"{why}; from hmax {h_mid:.3g} too: {res.reason}"
+        steps += (("intermediate", 1.0, rm.iterations),)
+    nu = problem.nu_dof
+    moved = float(np.abs(res.w[:nu] - w0[:nu]).max())
+    if moved > 0.1 * scale:
+        return None, (f"fine Newton moved a node by {moved:.3g} from the coarse state "
+                      f"(more than {0.1 * scale:.3g}: another branch)")
+    stable, k = _fine_verdict(problem, linear, res.w, stats)
+    if stable is not True:
+        what = "unknown" if stable is None else f"unstable ({k} negative eigenvalue(s))"
+        return None, f"fine end state {what}"
+    report(1.0)
+    return _Finished(w=res.w, kappa=coarse.kappa, g=coarse.g,
+                     steps=steps + (("fine", 1.0, res.iterations),),
+                     snaps=tuple(coarse.snaps), rejected_steps=coarse.rejected_steps,
+                     stable=stable, negative_eigenvalues=k), ""
 
 
 def _branch(path, snaps):

@@ -251,3 +251,18 @@ def test_planform_csv_of_a_trapezoid_gives_the_trapezoid(tmp_path, capsys):
     bad.write_text("x,width\n0,1\n1,-0.2\n")
     assert main(["solve", "--planform", str(bad)]) == 2
     assert "width" in capsys.readouterr().err
+
+
+def test_solve_start_coarse_reports_the_coarse_work_separately(tmp_path):
+    out = tmp_path / "c.json"
+    p = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.1",
+            "--start", "coarse", "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
+    assert p.returncode == 0, p.stderr
+    data = json.loads(out.read_text())
+    assert data["start"] == "coarse" and data["coarse_hmax"] == 0.12
+    assert data["coarse_fallback"] == "" and data["coarse_factorizations"] > 0
+    assert 0 < data["factorizations"] <= 6 and data["back_substitutions"] > 0
+    ref = solve(Sheet(length=0.8, curvature=2.0), hmax=0.1)
+    assert data["deflection"] == pytest.approx(ref.deflection, rel=1e-4)
+    bad = run("solve", "--length", "0.8", "--start", "fine", "--quiet")
+    assert bad.returncode != 0 and "start" in bad.stderr

@@ -17,7 +17,7 @@ from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
-from ..solve import solve
+from ..solve import COARSE_HMAX, solve
 
 __all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
            "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
@@ -74,6 +74,12 @@ def add_solve_args(p, hmax=0.03) -> None:
                    help="solve the whole sheet (admits asymmetric shapes) instead of the "
                         "mirror-symmetric half")
     p.add_argument("--solver", default="auto", help=solver_help())
+    p.add_argument("--start", default="path",
+                   help="path (default): the load path on the mesh --hmax; coarse: the load "
+                        "path on the mesh --coarse-hmax, finished on --hmax by Newton (the "
+                        "fine path runs instead where the coarse one cannot decide the branch)")
+    p.add_argument("--coarse-hmax", type=float, default=COARSE_HMAX,
+                   help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX})")
     p.add_argument("--json", default=None, help="write a JSON summary here")
     p.add_argument("--vtu", default=None, help="write the deformed sheet (VTU, ParaView) here")
     p.add_argument("--png", default=None, help="write a picture of the deformed sheet here")
@@ -166,7 +172,8 @@ def run(args) -> int:
         series = Series()
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
                    refine=args.refine, solver=args.solver, symmetric=not args.full_sheet,
-                   on_failure="return", progress=not args.quiet, series=series)
+                   on_failure="return", progress=not args.quiet, series=series,
+                   start=args.start, coarse_hmax=args.coarse_hmax)
     if args.json:
         result.write(args.json)
     if args.vtu:

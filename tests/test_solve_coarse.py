@@ -1,0 +1,132 @@
+"""``solve(start="coarse")``: the load path on a coarse mesh, finished on the fine one."""
+import numpy as np
+import pytest
+
+from skfem_sheet import Sheet, solve
+from skfem_sheet.analyses.observables import tip_deflection
+from skfem_sheet.linalg import make_linear_solver
+from skfem_sheet.newton import NewtonOptions, Stats, newton
+from skfem_sheet.params import ParameterError
+from skfem_sheet.solve import Result
+
+solve_module = __import__("skfem_sheet.solve", fromlist=["solve"])
+
+
+def _polished(r):
+    """d of ``r``'s end state after a tight Newton solve (both starts then agree
+    to round-off if they ended on the same equilibrium)."""
+    res = newton(r.problem, r.w, r.gravity, make_linear_solver(r.solver),
+                 NewtonOptions(rtol=1e-9, utol=1e-10, max_iterations=6), Stats())
+    assert res.converged
+    return tip_deflection(r.problem, res.w)
+
+
+@pytest.mark.parametrize("path", ["curvature-first", "gravity-first"])
+def test_coarse_start_finds_the_path_s_branch_with_fewer_fine_factorisations(path):
+    # the bistable rectangle: each path selects its own branch (d 0.05 aloft, 0.59 drooped)
+    sheet = Sheet(1.3, 1.0, 2.5)
+    full = solve(sheet, path=path, hmax=0.1)
+    fast = solve(sheet, path=path, hmax=0.1, start="coarse", coarse_hmax=0.12)
+    assert fast.converged and fast.coarse_fallback == ""
+    assert fast.branch == full.branch and fast.stable is True
+    # same equilibrium: the stopping tolerance (utol 1e-6) bounds the difference,
+    # a tight solve from either end state makes it round-off
+    assert fast.deflection == pytest.approx(full.deflection, rel=1e-4)
+    assert _polished(fast) == pytest.approx(_polished(full), rel=1e-9)
+    assert fast.dofs == full.dofs
+    # the fine mesh only finishes: a few Newton iterations, one load step
+    assert fast.steps[-1][0] == "fine" and fast.steps[-1][2] == fast.newton_iterations
+    assert fast.factorizations <= 6 < full.factorizations
+    assert fast.coarse_factorizations > 0 and fast.coarse_newton_iterations > 0
+    assert full.coarse_factorizations == 0 and full.start == "path"
+    rec = fast.to_record()
+    assert list(rec) == [name for name, _, _ in Result.RECORD_FIELDS]
+    assert (rec["start"], rec["coarse_hmax"], rec["coarse_fallback"]) == ("coarse", 0.12, "")
+    assert rec["coarse_factorizations"] == fast.coarse_factorizations
+    assert fast.summary()["coarse_factorizations"] == fast.coarse_factorizations
+
+
+def test_no_coarser_mesh_runs_the_path():
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.15)
+    same = solve(sheet, hmax=0.15, start="coarse", coarse_hmax=0.15)
+    assert "not coarser" in same.coarse_fallback
+    assert same.deflection == full.deflection
+    assert same.factorizations == full.factorizations and same.coarse_factorizations == 0
+
+
+def test_a_late_coarse_snap_falls_back_to_the_fine_path(monkeypatch):
+    # a/R = 6, L/a = 1.3: gravity-first loses the drooped branch in the curvature
+    # ramp (at about 0.47 of it on these meshes) and pops up.  A snap that late in
+    # the last phase does not decide the fine mesh's branch: with LATE_SNAP = 0.6
+    # the fine path runs, and its answer and fine work are those of start="path"
+    sheet = Sheet(1.3, 1.0, 6.0)
+    monkeypatch.setattr(solve_module, "LATE_SNAP", 0.6)
+    full = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False)
+    back = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="coarse",
+                 coarse_hmax=0.2)
+    assert len(full.snaps) == 1 and full.snaps[0][1] > 0.4
+    assert "snapped late in its curvature phase" in back.coarse_fallback
+    assert back.deflection == full.deflection and back.snaps == full.snaps
+    assert back.factorizations == full.factorizations
+    assert back.coarse_factorizations > 0  # the coarse work is counted, separately
+    assert back.wall_time_s > 0 and back.converged
+
+
+def test_a_failed_fine_finish_falls_back(monkeypatch):
+    # a transferred state that Newton cannot finish (here: the reference state
+    # at full load, whose first correction exceeds the branch guard) must not
+    # be reported: the path runs on the fine mesh, and the failed attempt's
+    # factorisation is counted with the fine mesh's work
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.1)
+    monkeypatch.setattr(solve_module, "transfer", lambda old, w, new: np.zeros(new.ndof))
+    back = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
+    assert back.coarse_fallback.startswith("fine Newton from the coarse state failed")
+    # (the same path; the fine solver's earlier use may change round-off)
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-12) and back.converged
+    assert back.factorizations == full.factorizations + 1
+    assert back.coarse_factorizations > 0
+
+
+def test_a_coarse_state_too_far_for_newton_goes_through_an_intermediate_mesh(monkeypatch):
+    # the first Newton finish (coarse -> fine) is made to fail; the detour
+    # coarse -> mid -> fine must then find the fine path's equilibrium, with
+    # the mid mesh's work counted as coarse
+    from skfem_sheet.newton import NewtonResult
+
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.1)
+    real, meshes = solve_module.newton, []
+
+    def fails_once(problem, w, *args, **kwargs):
+        meshes.append(problem.sheet_mesh.hmax)
+        if len(meshes) == 1:
+            return NewtonResult(w, False, 0, "max iterations")
+        return real(problem, w, *args, **kwargs)
+
+    monkeypatch.setattr(solve_module, "newton", fails_once)
+    via = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
+    assert meshes == pytest.approx([0.1, np.sqrt(0.02), 0.1])
+    assert via.coarse_fallback == "" and via.converged and via.stable is True
+    assert [s[0] for s in via.steps[-2:]] == ["intermediate", "fine"]
+    assert via.factorizations == via.steps[-1][2]
+    assert via.coarse_factorizations > via.steps[-2][2] > 0
+    assert via.deflection == pytest.approx(full.deflection, rel=1e-4)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(start="fine"), "start"), (dict(start="coarse", coarse_hmax=0.0), "coarse_hmax"),
+    (dict(coarse_hmax=-1.0), "coarse_hmax")])
+def test_bad_start_arguments(kwargs, name):
+    with pytest.raises(ParameterError, match=name):
+        solve(Sheet(length=0.5), hmax=0.2, **kwargs)
+
+
+@pytest.mark.slow
+def test_flat_rectangle_from_a_coarse_start_matches_heavy_elastica_at_paper_resolution():
+    from tests.test_solve import heavy_elastica
+
+    r = solve(Sheet(length=1.0), hmax=0.03, start="coarse")
+    assert r.coarse_fallback == "" and r.factorizations <= 10
+    assert r.deflection == pytest.approx(heavy_elastica(1.0), rel=5e-3)
