@@ -21,7 +21,7 @@ Modules
 from .branch import Branch, BranchPoint, arclength, natural
 from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
 from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
-from .fold import FoldPoint, fold_test, locate_fold
+from .fold import FoldPoint, fold_on_section, fold_test, locate_fold
 from .protocol import (
                        DenseFactorization,
                        EngineFailure,
@@ -51,7 +51,7 @@ __all__ = [
                        "correct",
                        "fold_curve",
                        "fold_test",
-                       "locate_fold",
+                       "locate_fold", "fold_on_section",
                        "natural",
                        "newton",
 ]

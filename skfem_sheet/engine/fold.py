@@ -32,7 +32,7 @@ import numpy as np
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
-__all__ = ["FoldPoint", "fold_test", "locate_fold"]
+__all__ = ["FoldPoint", "fold_on_section", "fold_test", "locate_fold"]
 
 
 @dataclass(frozen=True)
@@ -133,18 +133,32 @@ class FoldSystem:
         self.last = None
 
     def sigma_derivatives(self, u, p, v, J):
+        """``d sigma/du`` and ``d sigma/dp_idx`` by differences of tangents:
+        central, or forward from ``J`` (one tangent per direction instead of
+        two) if the problem sets ``fd_one_sided = True`` (for the Newton
+        matrix only: ``sigma`` itself is exact, so the converged point is
+        not changed, only the rate of convergence)."""
         c = self.c
+        one_sided = bool(getattr(c, "fd_one_sided", False))
         eps = (c.fd_state_step * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
                / max(float(np.abs(v).max()), 1e-300))
-        Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
-        g_u = -(Jp @ v - Jm @ v) / (2 * eps)
+        Jv = J @ v
+        if one_sided:
+            g_u = -(c.jacobian(u + eps * v, p) @ v - Jv) / eps
+        else:
+            Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
+            g_u = -(Jp @ v - Jm @ v) / (2 * eps)
         g_p = []
         for i in self.idx:
             h = c.fd_parameter_step * max(1.0, abs(p[i]))
             pp, pm = p.copy(), p.copy()
             pp[i] += h
             pm[i] -= h
-            g_p.append(-float(v @ (c.jacobian(u, pp) @ v - c.jacobian(u, pm) @ v)) / (2 * h))
+            if one_sided:
+                g_p.append(-float(v @ (c.jacobian(u, pp) @ v - Jv)) / h)
+            else:
+                g_p.append(-float(v @ (c.jacobian(u, pp) @ v - c.jacobian(u, pm) @ v))
+                           / (2 * h))
         return g_u, np.array(g_p)
 
     def __call__(self, u, p):
@@ -268,3 +282,59 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
     stats = counter.stats() - start
     return FoldPoint(**{**fold.__dict__, "stats": stats}), res
+
+
+def fold_on_section(problem, u, p, params, section, *, v0, tol: Tolerances = DEFAULT_TOLERANCES):
+    """The fold in two free parameters on a section of the fold curve.
+
+    Newton's method on ``R(u, p) = 0, sigma(u, p) = 0, <t_u, u> + t_p . p = c``
+    in ``(u, p_i, p_j)``: one point of the fold curve in ``(p_i, p_j)``,
+    picked by the linear condition ``section = (t_u, t_p, c)`` (``t_p`` over
+    all parameters; ``<., .>`` the problem's inner product), e.g. a fixed
+    value of one displacement, which parametrises the curve through a cusp
+    (where neither parameter does).  One factorisation per iteration.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+        Start (e.g. a fold of a coarser discretisation, carried over).
+    params : (int or str, int or str)
+        ``(p_i, p_j)``; the point reports its kind in ``p_i``.
+    section : (ndarray, ndarray, float)
+    v0 : ndarray
+        Bordering vector (an approximate null vector).
+    tol : Tolerances
+
+    Returns
+    -------
+    (FoldPoint or None, NewtonResult)
+
+    Examples
+    --------
+    The cusp normal form ``u^3 - mu u - lam = 0`` on the section ``u = 0.5``:
+    the fold there is ``mu = 3 u^2, lam = -2 u^3``.
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - p[1] * u - p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - p[1]), ("lam", "mu"))
+    >>> f, _ = fold_on_section(P, np.array([0.4]), np.array([-0.2, 0.6]), ("lam", "mu"),
+    ...                        (np.array([1.0]), np.zeros(2), 0.5), v0=np.ones(1))
+    >>> np.round(f.p, 12).tolist()
+    [-0.25, 0.75]
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start = counter.stats()
+    u = np.array(u, dtype=float)
+    p = np.array(p, dtype=float)
+    idx = [parameter_index(counter, q, len(p)) for q in params]
+    t_u, t_p, c = section
+    t_u = np.asarray(t_u, dtype=float)
+    t_p = np.asarray(t_p, dtype=float)
+    system = FoldSystem(counter, v0, idx,
+                        arclength=(t_u, t_p, np.zeros_like(u), np.zeros_like(p), float(c)))
+    res = correct(counter, u, p, system, tol)
+    if not res.converged:
+        return None, res
+    fold = fold_point(counter, res, idx[0], False, 0.0, None)
+    return FoldPoint(**{**fold.__dict__, "stats": counter.stats() - start}), res
