@@ -56,7 +56,7 @@ from .continuation import follow_path
 from .discretisation import TaylorHoodSpace, element_laplacian
 from .engine import FoldCurve as EngineFoldCurve
 from .engine import Problem, Tolerances, fold_curve, fold_on_section, locate_fold, natural
-from .engine.fold import inertia_crossing
+from .engine.fold import equilibrium_on_section, inertia_crossing
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
 from .newton import Stats
@@ -428,6 +428,15 @@ class SheetFoldProblem(Problem):
         # (the inertia only needs the dof layout, the same for every (L, b))
         return _Factorization(self, slot, J, self._sheet.base)
 
+    def release(self):
+        """Drop the factorisations and the cached mapped problems (memory);
+        the problem stays usable (they are made again when needed)."""
+        s = self._sheet
+        self._solvers = [s.new_solver() for _ in self._solvers]
+        self._generation = [g + 1 for g in self._generation]
+        self._problems.clear()
+        self._last_residuals = []
+
     def _refactorize(self, fact):
         self._sheet.factorize(self._solvers[fact.slot], fact.K)
         self._generation[fact.slot] += 1
@@ -520,6 +529,9 @@ class FoldCurve:
     coarse_hmax: object = None
     coarse_points: object = None
     coarse_factorizations: object = None
+    #: Per refinement level: ``{"hmax", "points", "failed", "factorizations",
+    #: "factorizations_per_point"}`` (the last one is ``hmax``).
+    stages: tuple = ()
 
     def _at_start_value(self, kind):
         end = 1.0 if self.second == "tip_width" else self.curvature
@@ -546,7 +558,9 @@ class FoldCurve:
         out.update(hmax=self.hmax, completed=bool(self.completed), bistable=bool(self.bistable),
                    reason=self.reason, remeshes=int(self.remeshes),
                    cusp_located=self.cusp_located,
-                   standout_length=self.standout_length, popup_length=self.popup_length)
+                   standout_length=self.standout_length, popup_length=self.popup_length,
+                   coarse_hmax=self.coarse_hmax, coarse_points=self.coarse_points,
+                   coarse_factorizations=self.coarse_factorizations)
         return out
 
     def summary(self) -> dict:
@@ -646,8 +660,9 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
         remeshes beyond :data:`REMESH_STRETCH` / :data:`REMESH_SQUEEZE`.
     progress : bool
         tqdm bar on stderr.
-    coarse_hmax : float, optional
-        Coarse to fine: trace the curve at this (coarser) mesh size first,
+    coarse_hmax : float or sequence of float, optional
+        Coarse to fine: trace the curve at this (coarser) mesh size first
+        (several: at the coarsest, then refined level by level),
         then correct ``fine_points`` of its points (and both ends, and the
         points around the cusp) on meshes of size ``hmax``, each from the
         coarse fold carried over, with the minimally augmented system: a few
@@ -992,22 +1007,24 @@ class _FineMeshes:
         return P
 
 
-def _refine(kept, j, make_fine, n_points, tol, check_inertia, last_is_end=True):
-    """The fold curve on the fine meshes from the coarse points ``kept``.
+def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
+    """The fold curve on the fine meshes from the coarse points ``kept[chosen]``.
 
-    Each selected coarse point (:func:`_select`) is carried onto a fine mesh
-    (state and null vector, :meth:`SheetFoldProblem.transferred`) and
-    corrected there with the minimally augmented system: the two ends at the
-    start value of the second parameter as folds in L
-    (:func:`~skfem_sheet.engine.locate_fold`), the others on the section of
-    the same tip deflection (:func:`~skfem_sheet.engine.fold_on_section`,
-    free L and second parameter), which parametrises the curve through the
-    cusp.  Returns ``(points, failures)``: points as dicts with the fold,
-    its factorisations and inertia, in the order of the coarse curve."""
+    Each chosen coarse point is carried onto a fine mesh (state and null
+    vector, :meth:`SheetFoldProblem.transferred`) and corrected there with
+    the minimally augmented system: the two ends, at the start value of the
+    second parameter, as folds in L (:func:`~skfem_sheet.engine.locate_fold`);
+    the others on the hyperplane through the coarse point normal to the
+    coarse curve's secant there (:func:`~skfem_sheet.engine.fold_on_section`,
+    L and the second parameter free), which is transversal to the curve also
+    at the cusp, where neither parameter parametrises it.  Returns
+    ``(points, failures, spent)``: points as dicts with the fold, its
+    factorisations and inertia, and the fine point as a :class:`_Kept`
+    (``"kept"``, to refine further), in the order of the coarse curve;
+    ``spent``: the factorisations of the points that failed."""
     name = _SECOND[j][0]
-    chosen = _select(kept, n_points)
     band = [kept[k].p[0] for k in chosen]
-    out, failures = [], []
+    out, failures, spent = [], [], 0
     for n, k in enumerate(chosen):
         c = kept[k]
         Pf = make_fine.for_length(float(c.p[0]), band)
@@ -1015,30 +1032,44 @@ def _refine(kept, j, make_fine, n_points, tol, check_inertia, last_is_end=True):
         u = c.problem.transferred(Pf, c.u, c.p)
         v = c.problem.transferred(Pf, c.v, c.p, state=False)
         end = n == 0 or (last_is_end and n == len(chosen) - 1)
-        if end:
-            fold, res = locate_fold(Pf, u, c.p, "L", v0=v, tol=tol)
-        else:
-            # the hyperplane through the coarse point normal to the coarse
-            # curve's secant there: transversal to the curve, also at the cusp
+        if not end:
             lo, hi = _neighbours(kept, k)
             t_u = c.problem.transferred(Pf, kept[hi].u - kept[lo].u, c.p, state=False)
             t_p = kept[hi].p - kept[lo].p
-            level = Pf.inner(t_u, u) + float(t_p @ c.p)
-            fold, res = fold_on_section(Pf, u, c.p, ("L", name), (t_u, t_p, level), v0=v,
-                                        tol=tol)
+            section = (t_u, t_p, Pf.inner(t_u, u) + float(t_p @ c.p))
+
+        def fold_from(u1, p1, v1):
+            if end:
+                return locate_fold(Pf, u1, p1, "L", v0=v1, tol=tol)
+            return fold_on_section(Pf, u1, p1, ("L", name), section, v0=v1, tol=tol)
+
+        fold, res = fold_from(u, c.p, v)
+        lost = res.stats.factorizations if fold is None else 0
+        if fold is None:
+            # outside Newton's basin of the fold system: settle the carried
+            # state first as an equilibrium on the section of its null
+            # vector (L free), then locate the fold from there
+            settled = equilibrium_on_section(Pf, u, c.p, "L",
+                                             (v, np.zeros_like(c.p), Pf.inner(v, u)), tol=tol)
+            lost += settled.stats.factorizations
+            if settled.converged:
+                fold, res = fold_from(settled.u, settled.p, v)
         if fold is None:
             failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
+            spent += lost + res.stats.factorizations + Pf.refactorizations - f0
             continue
         crossing, extra = None, 0
         if check_inertia and (end or n % int(check_inertia) == 0):
             crossing, extra = inertia_crossing(Pf, fold.u, fold.p, fold.v, 1e-4), 2
-        out.append(dict(p=np.array(fold.p), a=float(fold.a), side=int(fold.side),
-                        tip=float(fold.u[Pf._tip]), negative=fold.negative_eigenvalues,
-                        crossing=crossing, iterations=int(res.iterations),
-                        factorizations=int(fold.stats.factorizations + extra
+        tip = float(fold.u[Pf._tip])
+        out.append(dict(p=np.array(fold.p), a=float(fold.a), side=int(fold.side), tip=tip,
+                        negative=fold.negative_eigenvalues, crossing=crossing,
+                        iterations=int(res.iterations),
+                        factorizations=int(fold.stats.factorizations + extra + lost
                                            + Pf.refactorizations - f0), end=end,
-                        state=(Pf, fold.u)))
-    return out, failures
+                        kept=_Kept(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
+                                   int(fold.side), tip)))
+    return out, failures, spent
 
 
 def _neighbours(kept, k):
@@ -1118,8 +1149,15 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
          check_inertia, progress, **kw):
     """A trace at ``hmax``, or coarse to fine (see :func:`trace_fold_curve`)."""
     hmax = check_range("hmax", hmax, 0.02, 0.5)
+    coarse_levels = []
     if coarse_hmax is not None:
-        coarse_hmax = check_range("coarse_hmax", coarse_hmax, 0.02, 0.5)
+        values = np.atleast_1d(np.asarray(coarse_hmax, dtype=object))
+        if not 1 <= len(values) <= 4:
+            raise ParameterError(f"coarse_hmax must be a mesh size or up to four, got "
+                                 f"{coarse_hmax!r}")
+        coarse_levels = sorted((check_range("coarse_hmax", x, 0.02, 0.5) for x in values),
+                               reverse=True)
+        coarse_hmax = coarse_levels[0]
     if coarse_hmax is None or coarse_hmax <= hmax:
         collect = None if series is None else _SeriesCollector(series)
         return _trace(curvature, tip_width, j, bounds_j, hmax=hmax, check_inertia=check_inertia,
@@ -1138,17 +1176,33 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
                                    reason=f"{coarse.reason} (at the coarse mesh, "
                                           f"hmax {coarse_hmax:g})".strip())
     name, key = _SECOND[j]
-    fine = _FineMeshes(curvature, hmax, 1.0 if j == 1 else tip_width,
-                       {k: kw[k] for k in ("thickness", "modulus", "layers", "solver")})
+    kw_mesh = {k: kw[k] for k in ("thickness", "modulus", "layers", "solver")}
+    levels = [h for h in sorted(set(coarse_levels[1:]), reverse=True) if h > hmax] + [hmax]
     # the last point is a fold in L at the start value only if the coarse curve came back
-    pts, failures = _refine(kept.points, j, fine, fine_points, TOLERANCES, check_inertia,
-                            last_is_end=coarse.completed)
+    points, chosen = kept.points, _select(kept.points, fine_points)
+    stages, failures, meshes, spent = [], [], 0, 0
+    for h in levels:
+        fine = _FineMeshes(curvature, h, 1.0 if j == 1 else tip_width, kw_mesh)
+        pts, failed, lost = _refine(points, chosen, j, fine, TOLERANCES,
+                                    check_inertia if h == hmax else 0,
+                                    last_is_end=coarse.completed)
+        failures += [f"hmax {h:g}: {f}" for f in failed]
+        spent += lost
+        meshes += len(fine.meshes)
+        per = [q["factorizations"] for q in pts]
+        stages.append(dict(hmax=h, points=len(pts), failed=len(failed),
+                           factorizations=int(sum(per)) + lost,
+                           factorizations_per_point=float(np.median(per)) if per else None))
+        for P in {id(q.problem): q.problem for q in points}.values():
+            P.release()  # the coarser level's factorisations and mapped meshes
+        points, chosen = [q.pop("kept") for q in pts], list(range(len(pts)))
+        if len(points) < 2:
+            break
     del kept
     if series is not None:
-        for q in pts:
-            _add_frame(series, *q["state"], q["p"])
-    for q in pts:
-        q.pop("state")
+        for q in points:
+            _add_frame(series, q.problem, q.u, q.p)
+    del points
     completed = (coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
                  and not failures)
     reason = "; ".join(failures) if failures else coarse.reason
@@ -1162,7 +1216,7 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
             out_points[-1][key] = float(bounds_j[1])
     cusp = _fine_cusp(pts, j)
     per_point = [q["factorizations"] for q in pts]
-    total = coarse.factorizations + int(sum(per_point))
+    total = coarse.factorizations + int(sum(st["factorizations"] for st in stages))
     return FoldCurve(curvature, out_points, cusp, int(total),
                      float(np.median(per_point)) if per_point else float("nan"),
                      time.perf_counter() - t0, hmax, completed, reason,
@@ -1170,4 +1224,4 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
                      None, key, tip_width, remeshes=coarse.remeshes + len(fine.meshes),
                      cusp_located="refined points" if cusp is not None else "",
                      coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
-                     coarse_factorizations=coarse.factorizations)
+                     coarse_factorizations=coarse.factorizations, stages=tuple(stages))

@@ -32,7 +32,7 @@ import numpy as np
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
-__all__ = ["FoldPoint", "fold_on_section", "fold_test", "locate_fold"]
+__all__ = ["FoldPoint", "equilibrium_on_section", "fold_on_section", "fold_test", "locate_fold"]
 
 
 @dataclass(frozen=True)
@@ -338,3 +338,63 @@ def fold_on_section(problem, u, p, params, section, *, v0, tol: Tolerances = DEF
         return None, res
     fold = fold_point(counter, res, idx[0], False, 0.0, None)
     return FoldPoint(**{**fold.__dict__, "stats": counter.stats() - start}), res
+
+
+def equilibrium_on_section(problem, u, p, param, section, *,
+                           tol: Tolerances = DEFAULT_TOLERANCES):
+    """An equilibrium on a hyperplane, one parameter free.
+
+    Newton's method on ``R(u, p) = 0, <t_u, u> + t_p . p = c`` in
+    ``(u, p_param)`` (the bordered matrix ``[[K, R_p], [t_u^T, t_p]]`` stays
+    nonsingular at a fold in ``p_param`` if ``t_u`` is not orthogonal to
+    the null vector): e.g. a state carried over from another discretisation
+    near a fold, settled on the section ``<v0, u - u0> = 0`` of its
+    approximate null vector ``v0`` before the fold is located from it.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+    param : int or str
+    section : (ndarray, ndarray, float)
+        ``(t_u, t_p, c)``, ``t_p`` over all parameters.
+    tol : Tolerances
+
+    Returns
+    -------
+    NewtonResult
+
+    Examples
+    --------
+    On ``u^2 + lam = 0`` (a fold at ``lam = 0``) the section ``u = 0.5``
+    gives ``lam = -0.25``:
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**2 + p[0], lambda u, p: np.diag(2 * u), ("lam",))
+    >>> r = equilibrium_on_section(P, np.array([0.4]), np.array([0.0]), "lam",
+    ...                            (np.ones(1), np.zeros(1), 0.5))
+    >>> r.converged, round(float(r.p[0]), 12)
+    (True, -0.25)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    p = np.array(p, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    t_u, t_p, c = section
+    t_u = np.asarray(t_u, dtype=float)
+    t_p = np.asarray(t_p, dtype=float)
+
+    def linearize(uu, pp):
+        r = counter.residual(uu, pp)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = counter.jacobian(uu, pp)
+        fact = counter.factorize(J)
+        N = counter.inner(t_u, uu) + float(t_p @ pp) - float(c)
+        M = Bordered(fact, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
+                     counter.dual(t_u)[:, None], np.array([[t_p[i]]]))
+        du, dq = M.solve(-r, np.array([-N]))
+        dp = np.zeros_like(pp)
+        dp[i] = dq[0]
+        return counter.residual_norm(r), du, dp, fact, None
+
+    return correct(counter, np.array(u, dtype=float), p, linearize, tol)

@@ -419,6 +419,11 @@ def critical_tip_width(df) -> dict:
 
 
 # -- the map from fold curves ----------------------------------------------------------------
+#: Fold curves on meshes finer than this are traced coarse to fine: at this
+#: mesh size first, then points of it corrected on the fine mesh
+#: (``trace_fold_curve(..., coarse_hmax=COARSE_HMAX)``).
+COARSE_HMAX = 0.1
+
 #: Input parameters of one fold curve of the map and their defaults: ``second``
 #: is the curve's second parameter, ``"tip_width"`` (the curve in (L, b/a)
 #: at a/R = ``curvature``) or ``"curvature"`` (the curve in (L, a/R) at
@@ -496,8 +501,11 @@ def _run_curve_point(point) -> dict:
     rec = _empty_curve_record(point, key)
     t0 = time.perf_counter()
     try:
+        fine = point["hmax"] < COARSE_HMAX
         common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
-                      modulus=point["modulus"], solver=point["solver"], check_inertia=0)
+                      modulus=point["modulus"], solver=point["solver"],
+                      check_inertia=5 if fine else 0,
+                      coarse_hmax=COARSE_HMAX if fine else None)
         if point["second"] == "tip_width":
             c = trace_fold_curve(point["curvature"], **common)
         else:
