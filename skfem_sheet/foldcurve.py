@@ -1032,18 +1032,13 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
         u = c.problem.transferred(Pf, c.u, c.p)
         v = c.problem.transferred(Pf, c.v, c.p, state=False)
         end = n == 0 or (last_is_end and n == len(chosen) - 1)
+        section = None
         if not end:
             lo, hi = _neighbours(kept, k)
             t_u = c.problem.transferred(Pf, kept[hi].u - kept[lo].u, c.p, state=False)
             t_p = kept[hi].p - kept[lo].p
             section = (t_u, t_p, Pf.inner(t_u, u) + float(t_p @ c.p))
-
-        def fold_from(u1, p1, v1):
-            if end:
-                return locate_fold(Pf, u1, p1, "L", v0=v1, tol=tol)
-            return fold_on_section(Pf, u1, p1, ("L", name), section, v0=v1, tol=tol)
-
-        fold, res = fold_from(u, c.p, v)
+        fold, res = _fold_from(Pf, section, name, u, c.p, v, tol)
         lost = res.stats.factorizations if fold is None else 0
         if fold is None:
             # outside Newton's basin of the fold system: settle the carried
@@ -1053,7 +1048,7 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
                                              (v, np.zeros_like(c.p), Pf.inner(v, u)), tol=tol)
             lost += settled.stats.factorizations
             if settled.converged:
-                fold, res = fold_from(settled.u, settled.p, v)
+                fold, res = _fold_from(Pf, section, name, settled.u, settled.p, v, tol)
         if fold is None:
             failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
             spent += lost + res.stats.factorizations + Pf.refactorizations - f0
@@ -1070,6 +1065,13 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
                         kept=_Kept(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
                                    int(fold.side), tip)))
     return out, failures, spent
+
+
+def _fold_from(P, section, name, u, p, v, tol):
+    """The fold in L at fixed ``p`` (``section`` None), or on ``section``."""
+    if section is None:
+        return locate_fold(P, u, p, "L", v0=v, tol=tol)
+    return fold_on_section(P, u, p, ("L", name), section, v0=v, tol=tol)
 
 
 def _neighbours(kept, k):

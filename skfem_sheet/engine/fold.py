@@ -122,6 +122,36 @@ def fold_test(factorization, matvec, v0):
     return float(s[0]), v
 
 
+class _Bordered(Bordered):
+    """:class:`~skfem_sheet.engine.corrector.Bordered` with ``K^-1 B`` given
+    (solved beforehand together with other right-hand sides), and a
+    first back-substitution ``z = K^-1 f`` that may be given too."""
+
+    def __init__(self, factorization, matvec, B, C, D, X, refine: int = 1):
+        self.fact, self.matvec, self.refine = factorization, matvec, int(refine)
+        self.B = np.asarray(B, dtype=float).reshape(len(B), -1)
+        self.C = np.asarray(C, dtype=float).reshape(len(C), -1)
+        self.D = np.atleast_2d(np.asarray(D, dtype=float))
+        self.X = np.asarray(X, dtype=float).reshape(len(B), -1)
+        self.S = self.D - self.C.T @ self.X
+        if not np.all(np.isfinite(self.S)) or np.linalg.cond(self.S) > 1e14:
+            raise EngineFailure("singular bordered system")
+
+    def solve(self, f, g, z=None):
+        if z is None:
+            return super().solve(f, g)
+        f = np.asarray(f, dtype=float)
+        g = np.atleast_1d(np.asarray(g, dtype=float))
+        y = np.linalg.solve(self.S, g - self.C.T @ z)
+        x = z - self.X @ y
+        for _ in range(self.refine):
+            rf = f - self.matvec(x) - self.B @ y
+            rg = g - self.C.T @ x - self.D @ y
+            dx, dy = self._eliminate(rf, rg)
+            x, y = x + dx, y + dy
+        return x, y
+
+
 class FoldSystem:
     """Linearisation of ``R = 0, sigma = 0`` (+ an arclength row) in the
     free parameters ``idx``; the bordering vector is updated to the last null
@@ -171,13 +201,21 @@ class FoldSystem:
 
         def matvec(x):
             return J @ x
-        sigma, v = fold_test(fact, matvec, self.v0)
+        R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
+        # every right-hand side known now in one solve with several columns
+        # (K^-1 of the bordering vector, of dR/dp and of the residual):
+        # the back-substitutions cost less together than one by one
+        v0 = self.v0 / np.linalg.norm(self.v0)
+        Y = fact.solve(np.column_stack([v0, R_p, -r]))
+        Y = Y.reshape(len(r), -1)
+        fold = _Bordered(fact, matvec, v0[:, None], v0[:, None], np.zeros((1, 1)), Y[:, :1])
+        v, s_ = fold.solve(np.zeros(len(r)), np.ones(1), z=np.zeros(len(r)))
+        sigma = float(s_[0])
         # the derivatives of sigma need the v of its own normalisation (v0 . v = 1)
         g_u, g_p = self.sigma_derivatives(u, p, v, J)
         scale = float(np.abs(v).max())
         a = -float(g_u @ v) / scale**3  # for the unit null vector below
         v = _unit(v)
-        R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
         B, C = R_p, g_u[:, None]
         D = g_p[None, :]
         f, g = -r, [-sigma]
@@ -187,8 +225,8 @@ class FoldSystem:
             C = np.column_stack([g_u, c.dual(t_u)])
             D = np.vstack([g_p, t_p[self.idx]])
             g = [-sigma, -N]
-        M = Bordered(fact, matvec, B, C, D)
-        du, dq = M.solve(f, np.array(g, dtype=float))
+        M = _Bordered(fact, matvec, B, C, D, Y[:, 1:1 + len(self.idx)])
+        du, dq = M.solve(f, np.array(g, dtype=float), z=Y[:, -1])
         dp = np.zeros_like(p)
         dp[self.idx] = dq
         self.last = {"v": v, "sigma": sigma, "a": a, "R_p": R_p, "g_u": g_u, "g_p": g_p,
