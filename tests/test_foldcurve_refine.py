@@ -97,7 +97,7 @@ def test_fold_curve_series_reads_back_with_meshio(tmp_path):
     assert np.all(np.diff(times) > 0)
     P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
     n_half = P._sheet.base.sheet_mesh.n_vertices
-    for (t, path), pt in zip(steps, c.points):
+    for (_t, path), pt in zip(steps, c.points):
         m = meshio.read(path)
         assert n_half < len(m.points) < 2 * n_half  # mirrored: the whole sheet
         assert np.isfinite(m.point_data["displacement"]).all()
