@@ -1205,8 +1205,8 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
         for q in points:
             _add_frame(series, q.problem, q.u, q.p)
     del points
-    completed = (coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
-                 and not failures)
+    # complete: both ends refined at hmax (a point lost on the way only thins the curve)
+    completed = coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
     reason = "; ".join(failures) if failures else coarse.reason
     if failures:
         reason = f"{len(failures)} point(s) not refined: {reason}"

@@ -538,7 +538,7 @@ def _run_curve_point(point) -> dict:
 
 def _curve_message(c) -> str:
     """The curve's reason, and for a curve traced coarse to fine its levels."""
-    if c.coarse_hmax is None:
+    if getattr(c, "coarse_hmax", None) is None:
         return c.reason
     levels = "; ".join(f"hmax {st['hmax']:g}: {st['points']} points, {st['failed']} failed, "
                        f"{st['factorizations']} factorisations"
