@@ -54,8 +54,16 @@ from .analyses.stability import stability
 from .analyses.transfer import transfer
 from .continuation import follow_path
 from .discretisation import TaylorHoodSpace, element_laplacian
+from .engine import (
+    EngineFailure,
+    Problem,
+    Tolerances,
+    fold_curve,
+    fold_on_section,
+    locate_fold,
+    natural,
+)
 from .engine import FoldCurve as EngineFoldCurve
-from .engine import Problem, Tolerances, fold_curve, fold_on_section, locate_fold, natural
 from .engine.fold import equilibrium_on_section, inertia_crossing
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
@@ -780,6 +788,15 @@ def _standout_fold(make, P, u, p, hi, tol):
             retries += 1
             P, u, _ = make.remesh(P, last.u, last.p)
             p = last.p
+            # on the fresh mesh the fold may lie just below the last point
+            # (no equilibrium there to continue from): locate it directly
+            # from the carried state, settled on the section of the branch
+            # direction if the fold system does not converge from it
+            fold, lost = _fold_near(P, u, p, tol)
+            nfact += lost
+            if (fold is not None and fold.side < 0
+                    and -0.1 <= fold.value - last.p[0] <= 0.1):
+                return P, fold, nfact, f"fold located on a fresh mesh ({branch.reason})"
             continue
         last = branch.points[-1]
         if stop >= hi - 1e-12:
@@ -787,6 +804,29 @@ def _standout_fold(make, P, u, p, hi, tol):
         P, u, _ = make.remesh(P, last.u, last.p)
         p = last.p
     return P, None, nfact, f"more than {MAX_REMESHES} remeshes"
+
+
+def _fold_near(P, u, p, tol):
+    """A fold in L near ``(u, p)``: from there, or from the equilibrium on
+    the section of ``du/dL`` through it.  Returns ``(fold or None,
+    factorisations)``."""
+    fold, res = locate_fold(P, u, p, "L", tol=tol)
+    lost = res.stats.factorizations
+    if fold is not None:
+        return fold, lost
+    try:
+        fact = P.factorize(P.jacobian(u, p))
+        d = fact.solve(-P.dresidual(u, p, 0))
+        lost += 1
+    except EngineFailure:  # a singular tangent: no direction to settle along
+        return None, lost
+    settled = equilibrium_on_section(P, u, p, "L", (d, np.zeros_like(p), P.inner(d, u)),
+                                     tol=tol)
+    lost += settled.stats.factorizations
+    if not settled.converged:
+        return None, lost
+    fold, res = locate_fold(P, settled.u, settled.p, "L", v0=d, tol=tol)
+    return fold, lost + res.stats.factorizations
 
 
 def _turning_point(points, key):

@@ -1,7 +1,10 @@
 """Fold curves coarse to fine, the mapped space, the quadratic predictor, the series."""
+import json
+
 import numpy as np
 import pytest
 
+from skfem_sheet.cli import main
 from skfem_sheet.engine import FunctionProblem, fold_curve, fold_on_section, locate_fold
 from skfem_sheet.engine.fold import equilibrium_on_section
 from skfem_sheet.foldcurve import SheetFoldProblem, trace_fold_curve
@@ -128,3 +131,15 @@ def test_refined_curve_agrees_with_the_curve_traced_at_the_fine_mesh():
     assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
     for cross in fine.crossing[:1] + fine.crossing[-1:]:
         assert cross is not None and abs(cross[1] - cross[0]) == 1
+
+
+@pytest.mark.slow
+def test_cli_fold_curve_writes_its_series(tmp_path):
+    """``fold-curve --series DIR`` writes DIR/<name>.pvd with one step per point."""
+    out = tmp_path / "c.json"
+    assert main(["fold-curve", "--curvature", "2.5", "--hmax", str(COARSE), "--series",
+                 str(tmp_path / "s"), "--json", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    steps = read_pvd(tmp_path / "s" / "fold-curve_aR2.5.pvd")
+    assert len(steps) == len(data["points"]) > 3
+    assert np.all(np.diff([t for t, _ in steps]) > 0)
