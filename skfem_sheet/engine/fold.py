@@ -134,8 +134,18 @@ class _Bordered(Bordered):
         self.D = np.atleast_2d(np.asarray(D, dtype=float))
         self.X = np.asarray(X, dtype=float).reshape(len(B), -1)
         self.S = self.D - self.C.T @ self.X
-        if not np.all(np.isfinite(self.S)) or np.linalg.cond(self.S) > 1e14:
+        if not np.all(np.isfinite(self.S)) or np.linalg.cond(self.S) > self.MAX_COND:
             raise EngineFailure("singular bordered system")
+
+    #: Largest condition number of the Schur complement accepted.  With ``K``
+    #: singular to working precision (at a fold) the Schur complement of the
+    #: fold system carries ``1 / lambda_min(K)`` in the direction of the null
+    #: vector; near a cusp the fold row loses that term (``a -> 0``) and only
+    #: the arclength row keeps it, so its condition number reaches
+    #: ``1 / (lambda_min eps)`` although the bordered matrix is regular; the
+    #: step of iterative refinement on the whole bordered system recovers
+    #: the solution there.
+    MAX_COND = 1e17
 
     def solve(self, f, g, z=None):
         if z is None:
