@@ -34,6 +34,19 @@ L remeshed every :data:`REMESH_STRETCH`; a clamp curvature whose
 curvature-dominated branch reaches the end of the length range without a
 fold is *not bistable* there, and :attr:`FoldCurve.bistable` says so.
 
+Coarse to fine (``coarse_hmax``, what the fold map does below hmax 0.1): the
+curve is traced as above on a coarse mesh, and a few of its points (both
+ends, points spaced evenly in the parameter plane, the neighbours of the
+cusp) are carried onto the fine mesh (state and null vector) and corrected
+there with the minimally augmented system -- the ends as folds in L at the
+start value, the others on the hyperplane through the coarse point normal to
+the coarse curve (transversal to the curve also at the cusp) -- level by
+level (hmax 0.1, 0.06, then the fine mesh: a single jump from 0.1 to 0.03
+leaves points outside Newton's basin).  A fine point costs a few
+factorisations at the fine mesh; no load path or continuation runs there.
+The cusp is the vertex of the parabola through the three refined points of
+smallest ``b`` (``b`` has a regular minimum along the curve at the cusp).
+
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
 interfaces move).
