@@ -84,7 +84,7 @@ from .newton import Stats
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 
-__all__ = ["MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH", "TOLERANCES", "FoldCurve",
+__all__ = ["FINE_TOLERANCES", "MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH", "TOLERANCES", "FoldCurve",
            "SheetFoldProblem", "default_start_length", "trace_curvature_fold_curve",
            "trace_fold_curve"]
 
@@ -117,6 +117,14 @@ MAX_REMESHES = 40
 #: (quadratic) step removes; the residual bound only guards against a small
 #: correction far from equilibrium.
 TOLERANCES = Tolerances(rtol=5e-3, utol=1e-6, max_iterations=10, max_correction=0.3)
+#: The corrector's stopping rule for the points refined on a finer mesh (coarse
+#: to fine): the returned point is the iterate plus a correction below
+#: ``utol`` computed there, so that with Newton's quadratic convergence its
+#: error is of the order of ``utol^2`` (L/a to about 1e-9); the residual at
+#: that iterate may be larger than :data:`TOLERANCES` allows (a correction of
+#: 1e-5 a leaves residuals of 1e-2 of the weight), which saves the last
+#: linearisation of most points.
+FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3)
 
 
 def mapped_space(space, mesh):
@@ -1238,7 +1246,7 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
     stages, failures, meshes, spent = [], [], 0, 0
     for h in levels:
         fine = _FineMeshes(curvature, h, 1.0 if j == 1 else tip_width, kw_mesh)
-        pts, failed, lost = _refine(points, chosen, j, fine, TOLERANCES,
+        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES,
                                     check_inertia if h == hmax else 0,
                                     last_is_end=coarse.completed)
         failures += [f"hmax {h:g}: {f}" for f in failed]
