@@ -51,7 +51,8 @@ __all__ = [
                        "correct",
                        "fold_curve",
                        "fold_test",
-                       "locate_fold", "fold_on_section",
+                       "fold_on_section",
+                       "locate_fold",
                        "natural",
                        "newton",
 ]
