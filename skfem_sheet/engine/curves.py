@@ -183,7 +183,9 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     cusp_tol : float
         Arclength tolerance of the cusp location.
     check_inertia : bool or int
-        Factorise on both sides of every fold (True) or of every n-th point (n).
+        Factorise on both sides of every fold (True) or of every n-th point (n);
+        a check due at a degenerate fold (``|a|`` below 1 % of the largest
+        on the curve so far: at a cusp) is made at the next regular point.
     keep_states : bool
         Keep the state of every point (cusps always keep theirs).
     easy_iterations : int
@@ -265,12 +267,20 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         t_p[idx] = t_q
         return t_p
 
+    check = {"due": False, "a_max": 0.0}
+
     def make_point(u, q, ex, its, fcount, t_q, clipped=False, n_point=0):
         vr = float(ex["v"] @ ex["R_p"][:, 0])
         side = int(-np.sign(ex["a"] * vr)) if ex["a"] * vr != 0 else 0
         crossing = None
         f0 = counter.f
-        if every and n_point % every == 0:
+        check["a_max"] = max(check["a_max"], abs(float(ex["a"])))
+        check["due"] = check["due"] or bool(every and n_point % every == 0)
+        # at (next to) a cusp the fold degenerates (a -> 0): no eigenvalue
+        # crosses zero along v at first order there, so a check due at such
+        # a point is made at the next regular one
+        if check["due"] and abs(float(ex["a"])) >= 1e-2 * check["a_max"]:
+            check["due"] = False
             crossing = inertia_crossing(counter, u, q, ex["v"], inertia_step)
         return FoldCurvePoint(q.copy(), u if keep_states else None, ex["a"], side,
                               negative_besides_critical(ex["inertia"], ex["sigma"]), crossing,
