@@ -65,6 +65,7 @@ from tqdm.auto import tqdm
 
 from .analyses.stability import stability
 from .analyses.transfer import transfer
+from .assembly import Assembler
 from .continuation import follow_path
 from .discretisation import TaylorHoodSpace, element_laplacian
 from .engine import (
@@ -183,7 +184,12 @@ class _Sheet:
     solvers, load paths, stability), in one place."""
 
     def __init__(self, sheet, hmax, layers, solver):
-        self.base = SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=True))
+        # the space and the assembler uncached (taylor_hood_space and
+        # assembler_for keep the last eight alive, with their work buffers):
+        # a trace's meshes are its own, freed with it
+        mesh = sheet_mesh(sheet, hmax, layers, half=True)
+        space = TaylorHoodSpace.build(mesh)
+        self.base = SheetProblem(sheet, mesh, space=space, assembler=Assembler.build(space))
         self.solver_name = solver
         b = self.base
         self.free, self.nu_dof, self.ndof = b.free, b.nu_dof, b.ndof
