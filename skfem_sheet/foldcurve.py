@@ -34,6 +34,19 @@ L remeshed every :data:`REMESH_STRETCH`; a clamp curvature whose
 curvature-dominated branch reaches the end of the length range without a
 fold is *not bistable* there, and :attr:`FoldCurve.bistable` says so.
 
+Coarse to fine (``coarse_hmax``, what the fold map does below hmax 0.1): the
+curve is traced as above on a coarse mesh, and a few of its points (both
+ends, points spaced evenly in the parameter plane, the neighbours of the
+cusp) are carried onto the fine mesh (state and null vector) and corrected
+there with the minimally augmented system -- the ends as folds in L at the
+start value, the others on the hyperplane through the coarse point normal to
+the coarse curve (transversal to the curve also at the cusp) -- level by
+level (hmax 0.1, 0.06, then the fine mesh: a single jump from 0.1 to 0.03
+leaves points outside Newton's basin).  A fine point costs a few
+factorisations at the fine mesh; no load path or continuation runs there.
+The cusp is the vertex of the parabola through the three refined points of
+smallest ``b`` (``b`` has a regular minimum along the curve at the cusp).
+
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
 interfaces move).
@@ -52,17 +65,27 @@ from tqdm.auto import tqdm
 
 from .analyses.stability import stability
 from .analyses.transfer import transfer
+from .assembly import Assembler
 from .continuation import follow_path
-from .discretisation import TaylorHoodSpace
+from .discretisation import TaylorHoodSpace, element_laplacian
+from .engine import (
+    EngineFailure,
+    Problem,
+    Tolerances,
+    fold_curve,
+    fold_on_section,
+    locate_fold,
+    natural,
+)
 from .engine import FoldCurve as EngineFoldCurve
-from .engine import Problem, Tolerances, fold_curve, locate_fold, natural
+from .engine.fold import equilibrium_on_section, inertia_crossing
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
 from .newton import Stats
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 
-__all__ = ["MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH", "TOLERANCES", "FoldCurve",
+__all__ = ["FINE_TOLERANCES", "MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH", "TOLERANCES", "FoldCurve",
            "SheetFoldProblem", "default_start_length", "trace_curvature_fold_curve",
            "trace_fold_curve"]
 
@@ -74,6 +97,17 @@ MIN_SQUEEZE = 0.15
 REMESH_STRETCH = 1.35
 #: ... or its tip width is below this fraction of the mesh's (or above its inverse).
 REMESH_SQUEEZE = 0.5
+#: Predictor of the fold-curve continuation (see :func:`skfem_sheet.engine.fold_curve`).
+#: Measured at hmax 0.1 (a/R 2.5): the quadratic predictor with step control
+#: by the first correction halves the points (30 instead of 57) but not the
+#: factorisations (335 instead of 362): Newton's basin for the thin sheet is
+#: small (a first correction above about 0.005 a diverges, the membrane
+#: stiffness turning small predictor errors into residuals of the order of
+#: the weight), so longer steps fail and are halved.  Hence the tangent
+#: predictor with the iteration-count rule.
+PREDICTOR = "tangent"
+#: Step control by the first correction (None: by the iteration count).
+TARGET_CORRECTION = None
 #: Largest number of remeshes of one trace.
 MAX_REMESHES = 40
 
@@ -84,6 +118,62 @@ MAX_REMESHES = 40
 #: (quadratic) step removes; the residual bound only guards against a small
 #: correction far from equilibrium.
 TOLERANCES = Tolerances(rtol=5e-3, utol=1e-6, max_iterations=10, max_correction=0.3)
+#: The corrector's stopping rule for the points refined on a finer mesh (coarse
+#: to fine): the returned point is the iterate plus a correction below
+#: ``utol`` computed there, so that with Newton's quadratic convergence its
+#: error is of the order of ``utol^2`` (L/a to about 1e-9); the residual at
+#: that iterate may be larger than :data:`TOLERANCES` allows (a correction of
+#: 1e-5 a leaves residuals of 1e-2 of the weight), which saves the last
+#: linearisation of most points.
+FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3)
+
+
+def mapped_space(space, mesh):
+    """``space`` (a Taylor-Hood space) carried onto ``mesh``: the same
+    tetrahedra with moved vertices.
+
+    Each tetrahedron of ``mesh`` is the image of the one of ``space.mesh``
+    under an affine map ``x -> A_e x + c_e``, so the P2 gradients are
+    ``grad phi A_e^{-1}`` (as rows), the volume weights ``dx |det A_e|``,
+    the P2 nodes the images of the old ones (straight edges), and the values
+    of the basis at the quadrature points the same: what
+    :meth:`TaylorHoodSpace.build` computes on ``mesh``, without building
+    scikit-fem bases (the topology, dof numbering and dof sets are kept).
+    ``basis_u`` and ``basis_p`` stay those of ``space.mesh``: do not
+    interpolate with the result (build a space for that).
+
+    Examples
+    --------
+    >>> from skfem_sheet.mesh import sheet_mesh
+    >>> m = sheet_mesh(Sheet(length=1.0, tip_width=1.0, curvature=1.0), 0.3, half=True)
+    >>> s = TaylorHoodSpace.build(m)
+    >>> P = m.mesh.p * np.array([[1.2], [0.9], [1.0]])
+    >>> m2 = dataclasses.replace(m, mesh=MeshTet(P, m.mesh.t), length=1.2)
+    >>> a, b = mapped_space(s, m2), TaylorHoodSpace.build(m2)
+    >>> bool(np.allclose(a.dphi, b.dphi) and np.allclose(a.dx, b.dx)
+    ...      and np.allclose(a.nodes, b.nodes) and np.allclose(a.load_z, b.load_z))
+    True
+    """
+    t = space.mesh.mesh.t
+    X0 = space.mesh.mesh.p[:, t]  # (3, 4, nel)
+    X1 = mesh.mesh.p[:, t]
+    E0 = np.transpose(X0[:, 1:] - X0[:, :1], (2, 0, 1))  # (nel, 3, 3): columns are edges
+    E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))
+    A = E1 @ np.linalg.inv(E0)  # x1 - x1_0 = A (x0 - x0_0)
+    Ainv = np.linalg.inv(A)
+    dphi = np.einsum("eqaj,ejk->eqak", space.dphi, Ainv)
+    dx = space.dx * np.abs(np.linalg.det(A))[:, None]
+    en = space.element_nodes
+    rel = space.nodes[en] - X0[:, 0].T[:, None, :]  # (nel, 10, 3)
+    nodes = np.empty_like(space.nodes)
+    nodes[en] = np.einsum("eij,eaj->eai", A, rel) + X1[:, 0].T[:, None, :]
+    load_z = np.zeros(space.ndof)
+    load_z[:space.nu_dof] = np.bincount(
+        (3 * en + 2).ravel(), np.einsum("eq,eqa->ea", dx, space.phi2).ravel(),
+        minlength=space.nu_dof)
+    return dataclasses.replace(space, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx,
+                               nodes=nodes, laplacian=element_laplacian(dx, dphi),
+                               load_z=load_z, volume=float(dx.sum()), reference=None)
 
 
 # ----------------------------------------------------------------------------
@@ -94,7 +184,12 @@ class _Sheet:
     solvers, load paths, stability), in one place."""
 
     def __init__(self, sheet, hmax, layers, solver):
-        self.base = SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=True))
+        # the space and the assembler uncached (taylor_hood_space and
+        # assembler_for keep the last eight alive, with their work buffers):
+        # a trace's meshes are its own, freed with it
+        mesh = sheet_mesh(sheet, hmax, layers, half=True)
+        space = TaylorHoodSpace.build(mesh)
+        self.base = SheetProblem(sheet, mesh, space=space, assembler=Assembler.build(space))
         self.solver_name = solver
         b = self.base
         self.free, self.nu_dof, self.ndof = b.free, b.nu_dof, b.ndof
@@ -112,7 +207,7 @@ class _Sheet:
         w[self.clamp_dofs] = self.base.clamp_values(curvature)
         return w
 
-    def at(self, length, tip_width):
+    def at(self, length, tip_width, bases=False):
         """The base problem on its mesh mapped to ``(length, tip_width)``.
 
         The same construction as ``SheetProblem.with_length`` (a copy sharing
@@ -120,7 +215,9 @@ class _Sheet:
         geometric data recomputed), for the map ``x' = x L / L_m``,
         ``y' = y p_b(xi) / p_{b_m}(xi)``: the mapped vertices give a mesh with
         the same tetrahedra, whose basis gradients, weights, nodes and loads
-        replace the base's.
+        replace the base's (:func:`mapped_space`).  ``bases=True``: also
+        scikit-fem bases on the mapped mesh (needed to interpolate a state on
+        it, :func:`~skfem_sheet.analyses.transfer.transfer`; slower).
         """
         b0 = self.base
         m0 = b0.sheet_mesh
@@ -130,9 +227,11 @@ class _Sheet:
         mesh = SheetMesh(mesh=MeshTet(np.vstack([xi * length, P[1] * q, P[2]]), m0.mesh.t),
                          length=length, tip_width=tip_width, thickness=m0.thickness,
                          hmax=m0.hmax, layers=m0.layers, half=m0.half, refine=m0.refine)
-        # the same tetrahedra, so the same dof numbering and pattern: a fresh
-        # (uncached) space on the mapped mesh, sharing the base's assembler
-        space = TaylorHoodSpace.build(mesh, b0.quadrature_order)
+        # the same tetrahedra, so the same dof numbering and pattern: the base's
+        # space mapped element by element (or, with bases, a fresh uncached
+        # space on the mapped mesh), sharing the base's assembler
+        space = (TaylorHoodSpace.build(mesh, b0.quadrature_order) if bases
+                 else mapped_space(b0.space, mesh))
         # the Sheet only carries metadata here (b may exceed 1 by a difference step)
         sheet = b0.sheet.replace(length=length, tip_width=min(max(tip_width, 0.0), 1.0))
         return SheetProblem(sheet, mesh, b0.quadrature_order, space=space,
@@ -212,6 +311,11 @@ class SheetFoldProblem(Problem):
     layers : int, optional
     solver : str
         Linear-solver back-end (see :func:`skfem_sheet.linalg.make_linear_solver`).
+    solver_slots : int
+        Factorisations held at once (1 bounds the memory to one factor; a
+        solve with an older factorisation then refactorises it).
+    cache : int
+        Mapped problems kept (each holds the basis data of the mesh).
 
     Examples
     --------
@@ -226,7 +330,8 @@ class SheetFoldProblem(Problem):
     parameter_names = ("L", "b", "a/R")
 
     def __init__(self, curvature, hmax=0.1, mesh_length=1.3, mesh_tip_width=1.0,
-                 thickness=0.03, modulus=735.0, layers=None, solver="auto"):
+                 thickness=0.03, modulus=735.0, layers=None, solver="auto", solver_slots=2,
+                 cache=12):
         self.curvature = float(curvature)
         sheet = Sheet(length=mesh_length, tip_width=mesh_tip_width, curvature=curvature,
                       thickness=thickness, modulus=modulus)
@@ -238,8 +343,12 @@ class SheetFoldProblem(Problem):
         self._tip = (None if s.tip_dof is None
                      else int(np.searchsorted(s.free, s.tip_dof)))
         self._problems = OrderedDict()
-        self._solvers = [s.new_solver(), s.new_solver()]
-        self._generation = [0, 0]
+        self._last_residuals = []  # (p, u, R) of the last few residuals
+        # solver_slots factorisations held at once (a solve with an older one
+        # refactorises it); cache mapped problems kept
+        self._solvers = [s.new_solver() for _ in range(int(solver_slots))]
+        self._generation = [0] * int(solver_slots)
+        self._cache = int(cache)
         self._next = 0
         self.refactorizations = 0
 
@@ -253,7 +362,7 @@ class SheetFoldProblem(Problem):
                 raise ParameterError(f"(L, b) must be positive, got {key}")
             prob = self._sheet.at(*key)
             self._problems[key] = prob
-            if len(self._problems) > 12:
+            if len(self._problems) > self._cache:
                 self._problems.popitem(last=False)
         return prob
 
@@ -300,7 +409,9 @@ class SheetFoldProblem(Problem):
         else:
             w = np.zeros(self._sheet.ndof)
             w[self._sheet.free] = u
-        return transfer(self.problem(p), w, other.problem(p))[other._sheet.free]
+        # interpolation needs scikit-fem bases on the mapped mesh
+        old = self._sheet.at(float(p[0]), float(p[1]), bases=True)
+        return transfer(old, w, other.problem(p))[other._sheet.free]
 
     # -- protocol ------------------------------------------------------------
     def admissible_parameters(self, p) -> bool:
@@ -311,24 +422,55 @@ class SheetFoldProblem(Problem):
         return bool(0.5 <= s <= 2.0 and MIN_SQUEEZE <= q <= 1.5 and p[1] > 0
                     and 0 < self._kappa(p) < 2 * np.pi)
 
+    #: Differences of tangents in the fold system are one-sided (forward
+    #: from the tangent at the iterate): one tangent assembly and one mapped
+    #: mesh per parameter instead of two (:meth:`FoldSystem.sigma_derivatives`).
+    fd_one_sided = True
+
     def residual(self, u, p):
+        # the last residual is kept: the corrector evaluates it at a trial
+        # point, and the linearisation there asks for it again
+        key = tuple(float(x) for x in p)
+        for k, uu, rr in self._last_residuals:
+            if k == key and np.array_equal(uu, u):
+                return rr.copy()
         if not self.admissible_parameters(p):
             return np.full(len(u), np.nan)  # inadmissible: the corrector halves the step
         r, jmin = self._sheet.residual(self.problem(p), self.full(u, p))
-        if not jmin > 0:
-            return np.full(len(u), np.nan)
-        return r[self._sheet.free]
+        r = r[self._sheet.free] if jmin > 0 else np.full(len(u), np.nan)
+        self._last_residuals = [(key, np.array(u, dtype=float, copy=True), r),
+                                *self._last_residuals[:3]]
+        return r.copy()
+
+    def dresidual(self, u, p, i):
+        """``dR/dp_i`` by a forward difference from the residual at ``p``
+        (one residual on one mapped mesh)."""
+        p = np.asarray(p, dtype=float)
+        h = self.fd_parameter_step * max(1.0, abs(p[i]))
+        q = p.copy()
+        q[i] += h
+        r0 = self.residual(u, p)
+        return (self.residual(u, q) - r0) / h
 
     def jacobian(self, u, p):
         return self._sheet.tangent(self.problem(p), self.full(u, p))
 
     def factorize(self, J):
         slot = self._next
-        self._next = 1 - slot
+        self._next = (slot + 1) % len(self._solvers)
         self._sheet.factorize(self._solvers[slot], J)
         self._generation[slot] += 1
         # (the inertia only needs the dof layout, the same for every (L, b))
         return _Factorization(self, slot, J, self._sheet.base)
+
+    def release(self):
+        """Drop the factorisations and the cached mapped problems (memory);
+        the problem stays usable (they are made again when needed)."""
+        s = self._sheet
+        self._solvers = [s.new_solver() for _ in self._solvers]
+        self._generation = [g + 1 for g in self._generation]
+        self._problems.clear()
+        self._last_residuals = []
 
     def _refactorize(self, fact):
         self._sheet.factorize(self._solvers[fact.slot], fact.K)
@@ -417,6 +559,14 @@ class FoldCurve:
     #: by regula falsi), "turning point" (where the second parameter turns
     #: back, if the sign change was not seen), or "" (no cusp).
     cusp_located: str = ""
+    #: Coarse to fine (``coarse_hmax``): the mesh of the coarse trace, its
+    #: points and factorisations (None: the curve was traced at ``hmax``).
+    coarse_hmax: object = None
+    coarse_points: object = None
+    coarse_factorizations: object = None
+    #: Per refinement level: ``{"hmax", "points", "failed", "factorizations",
+    #: "factorizations_per_point"}`` (the last one is ``hmax``).
+    stages: tuple = ()
 
     def _at_start_value(self, kind):
         end = 1.0 if self.second == "tip_width" else self.curvature
@@ -443,7 +593,9 @@ class FoldCurve:
         out.update(hmax=self.hmax, completed=bool(self.completed), bistable=bool(self.bistable),
                    reason=self.reason, remeshes=int(self.remeshes),
                    cusp_located=self.cusp_located,
-                   standout_length=self.standout_length, popup_length=self.popup_length)
+                   standout_length=self.standout_length, popup_length=self.popup_length,
+                   coarse_hmax=self.coarse_hmax, coarse_points=self.coarse_points,
+                   coarse_factorizations=self.coarse_factorizations)
         return out
 
     def summary(self) -> dict:
@@ -502,7 +654,8 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
                      thickness: float = 0.03, modulus: float = 735.0, layers=None,
                      solver: str = "auto", ds: float = 0.05, ds_max: float = 0.4,
                      check_inertia=10, mesh_length=None, max_points: int = 400,
-                     progress: bool = False) -> FoldCurve:
+                     progress: bool = False, coarse_hmax=None,
+                     fine_points: int = 12, series=None) -> FoldCurve:
     """Trace the fold curve in (L, b) at clamp curvature ``curvature``.
 
     1. Solve the sheet at ``(start_length, b = 1)`` curvature-first, and follow
@@ -542,6 +695,20 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
         remeshes beyond :data:`REMESH_STRETCH` / :data:`REMESH_SQUEEZE`.
     progress : bool
         tqdm bar on stderr.
+    coarse_hmax : float or sequence of float, optional
+        Coarse to fine: trace the curve at this (coarser) mesh size first
+        (several: at the coarsest, then refined level by level),
+        then correct ``fine_points`` of its points (and both ends, and the
+        points around the cusp) on meshes of size ``hmax``, each from the
+        coarse fold carried over, with the minimally augmented system: a few
+        factorisations at ``hmax`` per point, no load path or continuation
+        there.  The cusp is then the turn of the refined points.
+    fine_points : int
+        Points of the coarse curve refined (spaced evenly in the plane of
+        the parameters), besides the ends and the cusp's neighbours.
+    series : skfem_sheet.io.Series, optional
+        Collects the state of every point of the curve (time: its index
+        along the curve); write it with ``series.write(directory, name)``.
 
     Returns
     -------
@@ -554,11 +721,12 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
     """
     curvature = check_range("curvature", curvature, 0, 2 * np.pi, lo_open=True, hi_open=True)
     min_tip_width = check_range("min_tip_width", min_tip_width, 0, 1, lo_open=True, hi_open=True)
-    return _trace(curvature, 1.0, 1, (min_tip_width, 1.0), hmax=hmax, start_length=start_length,
-                  length_range=length_range, thickness=thickness, modulus=modulus,
-                  layers=layers, solver=solver, ds=ds, ds_max=ds_max,
-                  check_inertia=check_inertia, mesh_length=mesh_length,
-                  max_points=max_points, progress=progress)
+    return _run(curvature, 1.0, 1, (min_tip_width, 1.0), hmax=hmax, start_length=start_length,
+                length_range=length_range, thickness=thickness, modulus=modulus,
+                layers=layers, solver=solver, ds=ds, ds_max=ds_max,
+                check_inertia=check_inertia, mesh_length=mesh_length,
+                max_points=max_points, progress=progress, coarse_hmax=coarse_hmax,
+                fine_points=fine_points, series=series)
 
 
 def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
@@ -567,7 +735,8 @@ def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
                                thickness: float = 0.03, modulus: float = 735.0, layers=None,
                                solver: str = "auto", ds: float = 0.05, ds_max: float = 0.4,
                                check_inertia=10, mesh_length=None, max_points: int = 400,
-                               progress: bool = False) -> FoldCurve:
+                               progress: bool = False, coarse_hmax=None,
+                               fine_points: int = 12, series=None) -> FoldCurve:
     """Trace the fold curve in (L, a/R) at tip width ``tip_width``.
 
     The same as :func:`trace_fold_curve` with the clamp curvature as the
@@ -587,11 +756,12 @@ def trace_curvature_fold_curve(tip_width: float = 1.0, curvature: float = 2.5,
     curvature = check_range("curvature", curvature, 0, 2 * np.pi, lo_open=True, hi_open=True)
     min_curvature = check_range("min_curvature", min_curvature, 0, curvature, lo_open=True,
                                 hi_open=True)
-    return _trace(curvature, tip_width, 2, (min_curvature, curvature), hmax=hmax,
-                  start_length=start_length, length_range=length_range, thickness=thickness,
-                  modulus=modulus, layers=layers, solver=solver, ds=ds, ds_max=ds_max,
-                  check_inertia=check_inertia, mesh_length=mesh_length,
-                  max_points=max_points, progress=progress)
+    return _run(curvature, tip_width, 2, (min_curvature, curvature), hmax=hmax,
+                start_length=start_length, length_range=length_range, thickness=thickness,
+                modulus=modulus, layers=layers, solver=solver, ds=ds, ds_max=ds_max,
+                check_inertia=check_inertia, mesh_length=mesh_length,
+                max_points=max_points, progress=progress, coarse_hmax=coarse_hmax,
+                fine_points=fine_points, series=series)
 
 
 _SECOND = {1: ("b", "tip_width"), 2: ("a/R", "curvature")}
@@ -645,6 +815,15 @@ def _standout_fold(make, P, u, p, hi, tol):
             retries += 1
             P, u, _ = make.remesh(P, last.u, last.p)
             p = last.p
+            # on the fresh mesh the fold may lie just below the last point
+            # (no equilibrium there to continue from): locate it directly
+            # from the carried state, settled on the section of the branch
+            # direction if the fold system does not converge from it
+            fold, lost = _fold_near(P, u, p, tol)
+            nfact += lost
+            if (fold is not None and fold.side < 0
+                    and -0.1 <= fold.value - last.p[0] <= 0.1):
+                return P, fold, nfact, f"fold located on a fresh mesh ({branch.reason})"
             continue
         last = branch.points[-1]
         if stop >= hi - 1e-12:
@@ -652,6 +831,29 @@ def _standout_fold(make, P, u, p, hi, tol):
         P, u, _ = make.remesh(P, last.u, last.p)
         p = last.p
     return P, None, nfact, f"more than {MAX_REMESHES} remeshes"
+
+
+def _fold_near(P, u, p, tol):
+    """A fold in L near ``(u, p)``: from there, or from the equilibrium on
+    the section of ``du/dL`` through it.  Returns ``(fold or None,
+    factorisations)``."""
+    fold, res = locate_fold(P, u, p, "L", tol=tol)
+    lost = res.stats.factorizations
+    if fold is not None:
+        return fold, lost
+    try:
+        fact = P.factorize(P.jacobian(u, p))
+        d = fact.solve(-P.dresidual(u, p, 0))
+        lost += 1
+    except EngineFailure:  # a singular tangent: no direction to settle along
+        return None, lost
+    settled = equilibrium_on_section(P, u, p, "L", (d, np.zeros_like(p), P.inner(d, u)),
+                                     tol=tol)
+    lost += settled.stats.factorizations
+    if not settled.converged:
+        return None, lost
+    fold, res = locate_fold(P, settled.u, settled.p, "L", v0=d, tol=tol)
+    return fold, lost + res.stats.factorizations
 
 
 def _turning_point(points, key):
@@ -684,7 +886,7 @@ def _strip(pt):
 
 def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_range, thickness,
            modulus, layers, solver, ds, ds_max, check_inertia, mesh_length, max_points,
-           progress):
+           progress, collect=None):
     """Standout fold at ``(tip_width, curvature)``, then its fold curve in
     ``(L, p_j)`` from the start value of ``p_j`` downward and back, remeshing
     on the way."""
@@ -727,7 +929,10 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
             seg = fold_curve(P, fold, ("L", name), box, ds=ds, ds_min=1e-4, ds_max=ds_max,
                              direction=direction, tol=tol, cusp_tol=1e-4,
                              check_inertia=check_inertia, easy_iterations=3,
+                             predictor=PREDICTOR, target_correction=TARGET_CORRECTION,
                              max_points=max(2, max_points - len(points)), keep_states=True,
+                             on_point=(None if collect is None else
+                                       (lambda pt, u, v, P=P: collect(P, pt, u, v))),
                              progress=bar)
             stats = seg.stats if stats is None else stats + seg.stats
             engine_refact += P.refactorizations
@@ -754,6 +959,8 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
                 reason = f"more than {MAX_REMESHES} remeshes"
                 break
             points += [_strip(pt) for pt in pts[:-1]]
+            if collect is not None and hasattr(collect, "drop_last"):
+                collect.drop_last()  # the next segment starts at this point again
             prev = pts[-2].p if len(pts) > 1 else (points[-1].p if points else p0)
             step_j = float(last.p[j] - prev[j])
             direction = direction if step_j == 0 else (1 if step_j > 0 else -1)
@@ -792,3 +999,298 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
                      tuple(pt.crossing for pt in points), curve, key, tip_width,
                      remeshes=make.count - 1, cusp_located=located)
 
+
+
+# ----------------------------------------------------------------------------
+# coarse to fine
+# ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Kept:
+    """A fold-curve point of the coarse trace with what refining it needs."""
+
+    problem: object = field(repr=False)
+    p: np.ndarray
+    u: np.ndarray = field(repr=False)
+    v: np.ndarray = field(repr=False)
+    a: float
+    side: int
+    tip: float
+
+
+class _Collector:
+    """Keeps every point of a coarse trace (states at the coarse mesh: small)."""
+
+    def __init__(self):
+        self.points = []
+
+    def __call__(self, P, pt, u, v):
+        self.points.append(_Kept(P, np.array(pt.p, dtype=float), np.array(u, dtype=float),
+                                 np.array(v, dtype=float), float(pt.a), int(pt.side),
+                                 float(u[P._tip])))
+
+
+def _select(kept, n_points):
+    """Indices of the coarse points to refine: both ends, ``n_points``
+    spaced evenly in the plane of the two parameters (L/a and the second
+    parameter, each relative to its range on the curve), and the two points
+    around the sign change of the fold coefficient with their neighbours
+    (the cusp: there the curve hardly moves in the plane)."""
+    P = np.array([k.p for k in kept])
+    q = (P - P.min(axis=0)) / np.maximum(np.ptp(P, axis=0), 1e-12)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    chosen = {0, len(kept) - 1}
+    for target in np.linspace(0.0, s[-1], max(2, n_points)):
+        chosen.add(int(np.argmin(np.abs(s - target))))
+    a = np.array([k.a for k in kept])
+    change = np.flatnonzero(np.sign(a[1:]) * np.sign(a[:-1]) < 0)
+    if len(change):
+        c = int(change[0])
+        chosen.update(k for k in range(c - 1, c + 3) if 0 <= k < len(kept))
+    # one point per tip deflection (a remesh repeats the point where it happens)
+    out = []
+    for k in sorted(chosen):
+        if not out or abs(kept[k].tip - kept[out[-1]].tip) > 1e-9:
+            out.append(k)
+    return out
+
+
+class _FineMeshes:
+    """Fine problems of a refinement, one mesh per band of lengths (remeshed
+    beyond :data:`REMESH_STRETCH`), each holding one factorisation."""
+
+    def __init__(self, curvature, hmax, tip_width, kw):
+        self.curvature, self.hmax, self.tip_width, self.kw = curvature, hmax, tip_width, kw
+        self.meshes = []
+
+    def for_length(self, L, band):
+        for P in self.meshes:
+            L_m = P.mesh_parameters[0]
+            if L_m / REMESH_STRETCH <= L <= L_m * REMESH_STRETCH:
+                return P
+        L_m = float(np.clip(np.median(band), L / 1.2, L * 1.2))
+        P = SheetFoldProblem(self.curvature, self.hmax, mesh_length=L_m,
+                             mesh_tip_width=self.tip_width, solver_slots=1, cache=4, **self.kw)
+        self.meshes.append(P)
+        return P
+
+
+def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
+    """The fold curve on the fine meshes from the coarse points ``kept[chosen]``.
+
+    Each chosen coarse point is carried onto a fine mesh (state and null
+    vector, :meth:`SheetFoldProblem.transferred`) and corrected there with
+    the minimally augmented system: the two ends, at the start value of the
+    second parameter, as folds in L (:func:`~skfem_sheet.engine.locate_fold`);
+    the others on the hyperplane through the coarse point normal to the
+    coarse curve's secant there (:func:`~skfem_sheet.engine.fold_on_section`,
+    L and the second parameter free), which is transversal to the curve also
+    at the cusp, where neither parameter parametrises it.  Returns
+    ``(points, failures, spent)``: points as dicts with the fold, its
+    factorisations and inertia, and the fine point as a :class:`_Kept`
+    (``"kept"``, to refine further), in the order of the coarse curve;
+    ``spent``: the factorisations of the points that failed."""
+    name = _SECOND[j][0]
+    band = [kept[k].p[0] for k in chosen]
+    out, failures, spent = [], [], 0
+    for n, k in enumerate(chosen):
+        c = kept[k]
+        Pf = make_fine.for_length(float(c.p[0]), band)
+        f0 = Pf.refactorizations
+        u = c.problem.transferred(Pf, c.u, c.p)
+        v = c.problem.transferred(Pf, c.v, c.p, state=False)
+        end = n == 0 or (last_is_end and n == len(chosen) - 1)
+        section = None
+        if not end:
+            lo, hi = _neighbours(kept, k)
+            t_u = c.problem.transferred(Pf, kept[hi].u - kept[lo].u, c.p, state=False)
+            t_p = kept[hi].p - kept[lo].p
+            section = (t_u, t_p, Pf.inner(t_u, u) + float(t_p @ c.p))
+        fold, res = _fold_from(Pf, section, name, u, c.p, v, tol)
+        lost = res.stats.factorizations if fold is None else 0
+        if fold is None:
+            # outside Newton's basin of the fold system: settle the carried
+            # state first as an equilibrium on the section of its null
+            # vector (L free), then locate the fold from there
+            settled = equilibrium_on_section(Pf, u, c.p, "L",
+                                             (v, np.zeros_like(c.p), Pf.inner(v, u)), tol=tol)
+            lost += settled.stats.factorizations
+            if settled.converged:
+                fold, res = _fold_from(Pf, section, name, settled.u, settled.p, v, tol)
+        if fold is None:
+            failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
+            spent += lost + res.stats.factorizations + Pf.refactorizations - f0
+            continue
+        crossing, extra = None, 0
+        if check_inertia and (end or n % int(check_inertia) == 0):
+            crossing, extra = inertia_crossing(Pf, fold.u, fold.p, fold.v, 1e-4), 2
+        tip = float(fold.u[Pf._tip])
+        out.append(dict(p=np.array(fold.p), a=float(fold.a), side=int(fold.side), tip=tip,
+                        negative=fold.negative_eigenvalues, crossing=crossing,
+                        iterations=int(res.iterations),
+                        factorizations=int(fold.stats.factorizations + extra + lost
+                                           + Pf.refactorizations - f0), end=end,
+                        kept=_Kept(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
+                                   int(fold.side), tip)))
+    return out, failures, spent
+
+
+def _fold_from(P, section, name, u, p, v, tol):
+    """The fold in L at fixed ``p`` (``section`` None), or on ``section``."""
+    if section is None:
+        return locate_fold(P, u, p, "L", v0=v, tol=tol)
+    return fold_on_section(P, u, p, ("L", name), section, v0=v, tol=tol)
+
+
+def _neighbours(kept, k):
+    """The points around ``k`` on the same coarse mesh (for a secant)."""
+    lo = k - 1 if k > 0 and kept[k - 1].problem is kept[k].problem else k
+    hi = k + 1 if k + 1 < len(kept) and kept[k + 1].problem is kept[k].problem else k
+    if lo == hi:
+        raise ParameterError("a coarse fold-curve point without a neighbour on its mesh")
+    return lo, hi
+
+
+def _fine_cusp(points, j):
+    """The cusp of refined points: the vertex of the parabola through the
+    three points of the smallest second parameter, in the tip deflection
+    (along the curve the second parameter has a regular minimum at the cusp,
+    where its projection turns back); None if that minimum is at an end."""
+    if len(points) < 3:
+        return None
+    d = np.array([q["tip"] for q in points])
+    b = np.array([q["p"][j] for q in points])
+    L = np.array([q["p"][0] for q in points])
+    k = int(np.argmin(b))
+    if k == 0 or k == len(points) - 1:
+        return None
+    sl = slice(k - 1, k + 2)
+    cb, cL = np.polyfit(d[sl], b[sl], 2), np.polyfit(d[sl], L[sl], 2)
+    d_star = -cb[1] / (2 * cb[0]) if cb[0] > 0 else d[k]
+    d_star = float(np.clip(d_star, min(d[k - 1], d[k + 1]), max(d[k - 1], d[k + 1])))
+    return {_SECOND[j][1]: float(np.polyval(cb, d_star)), "length": float(np.polyval(cL, d_star))}
+
+
+class _Snapshot:
+    """What :func:`skfem_sheet.io.state_fields` reads of a problem, for one
+    state: a series frame then holds vertex fields, not the mapped problem's
+    basis data."""
+
+    def __init__(self, problem, w):
+        self.sheet_mesh, self.length = problem.sheet_mesh, problem.length
+        U, p = problem.split(w)
+        self._split = (np.array(U), np.array(p))
+        self._pressure = np.array(problem.paper_pressure(w))
+        self._psi = np.array(problem.energy_density(w))
+
+    def split(self, w):
+        return self._split
+
+    def paper_pressure(self, w):
+        return self._pressure
+
+    def energy_density(self, w):
+        return self._psi
+
+
+def _add_frame(series, P, u, p):
+    """One fold-curve point into ``series`` (time: its index)."""
+    w = P.full(u, p)
+    series.add(len(series), _Snapshot(P.problem(p), w), w, length=float(p[0]),
+               tip_width=float(p[1]), curvature=float(P._kappa(p)))
+
+
+class _SeriesCollector:
+    """The direct trace's points into a series (the point a remesh repeats
+    is dropped, as the trace drops it)."""
+
+    def __init__(self, series):
+        self.series = series
+
+    def __call__(self, P, pt, u, v):
+        _add_frame(self.series, P, u, pt.p)
+
+    def drop_last(self):
+        if len(self.series):
+            self.series.frames.pop()
+
+
+def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, series,
+         check_inertia, progress, **kw):
+    """A trace at ``hmax``, or coarse to fine (see :func:`trace_fold_curve`)."""
+    hmax = check_range("hmax", hmax, 0.02, 0.5)
+    coarse_levels = []
+    if coarse_hmax is not None:
+        values = np.atleast_1d(np.asarray(coarse_hmax, dtype=object))
+        if not 1 <= len(values) <= 4:
+            raise ParameterError(f"coarse_hmax must be a mesh size or up to four, got "
+                                 f"{coarse_hmax!r}")
+        coarse_levels = sorted((check_range("coarse_hmax", x, 0.02, 0.5) for x in values),
+                               reverse=True)
+        coarse_hmax = coarse_levels[0]
+    if coarse_hmax is None or coarse_hmax <= hmax:
+        collect = None if series is None else _SeriesCollector(series)
+        return _trace(curvature, tip_width, j, bounds_j, hmax=hmax, check_inertia=check_inertia,
+                      progress=progress, collect=collect, **kw)
+    if isinstance(fine_points, bool) or not isinstance(fine_points, (int, np.integer)) \
+            or not 2 <= fine_points <= 200:
+        raise ParameterError(f"fine_points must be an integer in [2, 200], got {fine_points!r}")
+    t0 = time.perf_counter()
+    kept = _Collector()
+    coarse = _trace(curvature, tip_width, j, bounds_j, hmax=coarse_hmax, check_inertia=0,
+                    progress=progress, collect=kept, **kw)
+    info = dict(hmax=hmax, coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
+                coarse_factorizations=coarse.factorizations)
+    if not coarse.bistable or len(kept.points) < 2:
+        return dataclasses.replace(coarse, **info, wall_time_s=time.perf_counter() - t0,
+                                   reason=f"{coarse.reason} (at the coarse mesh, "
+                                          f"hmax {coarse_hmax:g})".strip())
+    name, key = _SECOND[j]
+    kw_mesh = {k: kw[k] for k in ("thickness", "modulus", "layers", "solver")}
+    levels = [h for h in sorted(set(coarse_levels[1:]), reverse=True) if h > hmax] + [hmax]
+    # the last point is a fold in L at the start value only if the coarse curve came back
+    points, chosen = kept.points, _select(kept.points, fine_points)
+    stages, failures, meshes, spent = [], [], 0, 0
+    for h in levels:
+        fine = _FineMeshes(curvature, h, 1.0 if j == 1 else tip_width, kw_mesh)
+        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES,
+                                    check_inertia if h == hmax else 0,
+                                    last_is_end=coarse.completed)
+        failures += [f"hmax {h:g}: {f}" for f in failed]
+        spent += lost
+        meshes += len(fine.meshes)
+        per = [q["factorizations"] for q in pts]
+        stages.append(dict(hmax=h, points=len(pts), failed=len(failed),
+                           factorizations=int(sum(per)) + lost,
+                           factorizations_per_point=float(np.median(per)) if per else None))
+        for P in {id(q.problem): q.problem for q in points}.values():
+            P.release()  # the coarser level's factorisations and mapped meshes
+        points, chosen = [q.pop("kept") for q in pts], list(range(len(pts)))
+        if len(points) < 2:
+            break
+    del kept
+    if series is not None:
+        for q in points:
+            _add_frame(series, q.problem, q.u, q.p)
+    del points
+    # complete: both ends refined at hmax (a point lost on the way only thins the curve)
+    completed = coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
+    reason = "; ".join(failures) if failures else coarse.reason
+    if failures:
+        reason = f"{len(failures)} point(s) not refined: {reason}"
+    out_points = tuple({key: float(q["p"][j]), "length": float(q["p"][0]),
+                        "kind": _kind(q["side"])} for q in pts)
+    if pts and pts[0]["end"]:  # the ends lie on the start value exactly
+        out_points[0][key] = float(bounds_j[1])
+        if completed:
+            out_points[-1][key] = float(bounds_j[1])
+    cusp = _fine_cusp(pts, j)
+    per_point = [q["factorizations"] for q in pts]
+    total = coarse.factorizations + int(sum(st["factorizations"] for st in stages))
+    return FoldCurve(curvature, out_points, cusp, int(total),
+                     float(np.median(per_point)) if per_point else float("nan"),
+                     time.perf_counter() - t0, hmax, completed, reason,
+                     tuple(q["negative"] for q in pts), tuple(q["crossing"] for q in pts),
+                     None, key, tip_width, remeshes=coarse.remeshes + len(fine.meshes),
+                     cusp_located="refined points" if cusp is not None else "",
+                     coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
+                     coarse_factorizations=coarse.factorizations, stages=tuple(stages))

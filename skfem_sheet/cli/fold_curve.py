@@ -9,7 +9,7 @@ See :mod:`skfem_sheet.foldcurve`.
 from __future__ import annotations
 
 from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
-from ..io import check_writable, write_json
+from ..io import Series, check_directory, check_writable, write_json
 from ..params import ParameterError
 from .ranges import parse_range
 from .solve import solver_help
@@ -38,6 +38,15 @@ def register(subparsers) -> None:
                         "1.2 at a/R = 2.5)")
     p.add_argument("--lengths", default="0.6:2.4",
                    help="the curve stops outside this range of L/a, short:long (default 0.6:2.4)")
+    p.add_argument("--coarse-hmax", type=float, default=None,
+                   help="coarse to fine: trace at this coarser mesh size first, then correct "
+                        "points of it at --hmax (e.g. --hmax 0.03 --coarse-hmax 0.1)")
+    p.add_argument("--fine-points", type=int, default=12,
+                   help="with --coarse-hmax: points of the coarse curve corrected at --hmax "
+                        "besides the ends and the cusp (default 12)")
+    p.add_argument("--series", default=None, metavar="DIR",
+                   help="write the state at every point of the curve as a ParaView time "
+                        "series DIR/<name>.pvd (time: the point's index along the curve)")
     p.add_argument("--json", default=None, help="write the curve here")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
@@ -51,21 +60,32 @@ def run(args) -> int:
     if not 0 < lengths[0] < lengths[1]:
         raise ParameterError(f"--lengths must be short:long with 0 < short < long, "
                              f"got {args.lengths!r}")
+    series = None
+    if args.series:
+        check_directory("--series", args.series)
+        series = Series()
     common = dict(hmax=args.hmax, start_length=args.start_length, length_range=lengths,
                   thickness=args.thickness, modulus=args.modulus, layers=args.layers,
-                  solver=args.solver, progress=not args.quiet)
+                  solver=args.solver, progress=not args.quiet, coarse_hmax=args.coarse_hmax,
+                  fine_points=args.fine_points, series=series)
     if args.second == "tip-width":
         curve = trace_fold_curve(args.curvature, **common)
         where = f"a/R = {args.curvature:g}"
+        name = f"fold-curve_aR{args.curvature:g}"
     else:
         curve = trace_curvature_fold_curve(args.tip_width, args.curvature, **common)
         where = f"b/a = {args.tip_width:g}"
+        name = f"fold-curve_ba{args.tip_width:g}_from_aR{args.curvature:g}"
     data = curve.summary()
     if args.json:
         write_json(data, args.json)
+    if series is not None and len(series):
+        print(f"wrote {series.write(args.series, name)} ({len(series)} points)")
     cusp = curve.cusp
     cusp_text = "none" if cusp is None else ", ".join(f"{k} {v:.4f}" for k, v in cusp.items())
-    print(f"fold curve at {where}, hmax {args.hmax:g}: {len(curve.points)} points, "
+    coarse = ("" if curve.coarse_hmax is None else
+              f" (from {curve.coarse_points} points at hmax {curve.coarse_hmax:g})")
+    print(f"fold curve at {where}, hmax {args.hmax:g}{coarse}: {len(curve.points)} points, "
           f"{curve.factorizations} factorisations ({curve.factorizations_per_point:g} per point, "
           f"median), {curve.wall_time_s:.1f} s")
     def fmt(x):

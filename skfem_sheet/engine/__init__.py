@@ -22,7 +22,7 @@ Modules
 from .branch import Branch, BranchPoint, arclength, natural, sweep
 from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
 from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
-from .fold import FoldPoint, fold_test, locate_fold
+from .fold import FoldPoint, fold_on_section, fold_test, locate_fold
 from .protocol import (
                        DenseFactorization,
                        EngineFailure,
@@ -52,6 +52,7 @@ __all__ = [
                        "correct",
                        "fold_curve",
                        "fold_test",
+                       "fold_on_section",
                        "locate_fold",
                        "natural",
                        "newton",

@@ -160,7 +160,8 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
                ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
                max_points: int = 500, cusp_tol: float = 1e-9, max_cusp_iterations: int = 40,
                check_inertia=False, inertia_step: float = 1e-4, keep_states: bool = False,
-               easy_iterations: int = 3, progress=None) -> FoldCurve:
+               easy_iterations: int = 3, target_correction=None, predictor: str = "tangent",
+               on_point=None, progress=None) -> FoldCurve:
     """Continue a fold in two parameters, detecting and locating cusps.
 
     Parameters
@@ -182,13 +183,29 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     cusp_tol : float
         Arclength tolerance of the cusp location.
     check_inertia : bool or int
-        Factorise on both sides of every fold (True) or of every n-th point (n).
+        Factorise on both sides of every fold (True) or of every n-th point (n);
+        a check due at a degenerate fold (``|a|`` below 1 % of the largest
+        on the curve so far: at a cusp) is made at the next regular point.
     keep_states : bool
         Keep the state of every point (cusps always keep theirs).
     easy_iterations : int
         The step grows (x 1.5) after a point corrected in at most this many
         Newton iterations, is kept after one more, and shrinks (x 0.7) after
-        more than that.
+        more than that (unless ``target_correction`` is given).
+    target_correction : float, optional
+        Step control by the predictor's error instead: the next step is
+        ``h (target / c)^(1/q)`` (within ``[h/2, 2 h]``), ``c`` the size of
+        the first Newton correction of the point (``correction_norm`` of the
+        state, and the parameters), ``q`` the order of the predictor's error
+        (2 for the tangent, 3 for the quadratic predictor).
+    predictor : {"tangent", "quadratic"}
+        ``"quadratic"``: from the second step on, the tangent predictor plus
+        the curvature term ``h^2 / 2 (t_k - t_{k-1}) / h_{k-1}`` (the change
+        of the unit tangent over the last step): an error of order ``h^3``,
+        so that longer steps correct in as many iterations.
+    on_point : callable(FoldCurvePoint, u, v), optional
+        Called with every point of the curve, its state and its null vector
+        (also when ``keep_states`` is False; e.g. to write a series).
 
     Returns
     -------
@@ -223,6 +240,11 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     ds = check_range("ds", ds, 0, None, lo_open=True)
     ds_min = check_range("ds_min", ds_min, 0, ds, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, None)
+    if predictor not in ("tangent", "quadratic"):
+        raise ParameterError(f"predictor must be 'tangent' or 'quadratic', got {predictor!r}")
+    if target_correction is not None:
+        target_correction = check_range("target_correction", target_correction, 0, None,
+                                        lo_open=True)
     idx = [i, j]
     every = int(check_inertia) if not isinstance(check_inertia, bool) else (1 if check_inertia else 0)
 
@@ -245,12 +267,20 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         t_p[idx] = t_q
         return t_p
 
+    check = {"due": False, "a_max": 0.0}
+
     def make_point(u, q, ex, its, fcount, t_q, clipped=False, n_point=0):
         vr = float(ex["v"] @ ex["R_p"][:, 0])
         side = int(-np.sign(ex["a"] * vr)) if ex["a"] * vr != 0 else 0
         crossing = None
         f0 = counter.f
-        if every and n_point % every == 0:
+        check["a_max"] = max(check["a_max"], abs(float(ex["a"])))
+        check["due"] = check["due"] or bool(every and n_point % every == 0)
+        # at (next to) a cusp the fold degenerates (a -> 0): no eigenvalue
+        # crosses zero along v at first order there, so a check due at such
+        # a point is made at the next regular one
+        if check["due"] and abs(float(ex["a"])) >= 1e-2 * check["a_max"]:
+            check["due"] = False
             crossing = inertia_crossing(counter, u, q, ex["v"], inertia_step)
         return FoldCurvePoint(q.copy(), u if keep_states else None, ex["a"], side,
                               negative_besides_critical(ex["inertia"], ex["sigma"]), crossing,
@@ -270,16 +300,28 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     if t[1][1] * direction < 0:
         t = (-t[0], -t[1])
     points = [make_point(u, p, system.last, start.iterations, counter.f - f0, t[1])]
+    if on_point is not None:
+        on_point(points[-1], u, system.last["v"])
     if progress is not None:
         progress(points[-1])
     cusps = []
     v = system.last["v"]
     a_prev = system.last["a"]
     h = ds
+    order = 2
+    curv = None  # (t_k - t_{k-1}) / h_{k-1}: the quadratic predictor's curvature
     spent = 0  # factorisations of failed attempts, charged to the next point
     while len(points) < max_points:
         f0 = counter.f
-        res, ex = _corrected(counter, v, idx, t, u, p, h, tol, full)
+        # a step that would leave the box is cut to end a little beyond it
+        # (the last point is then put on the bound from a short interval)
+        for k, (lo, hi) in ((i, (lo_i, hi_i)), (j, (lo_j, hi_j))):
+            tk = t[1][idx.index(k)]
+            room = (hi - p[k]) if tk > 0 else (p[k] - lo)
+            if tk != 0 and room > 0 and h * abs(tk) > room + 0.25 * ds_min:
+                h = max(ds_min, min(h, 1.02 * room / abs(tk) + 0.25 * ds_min))
+        bend = None if curv is None else (0.5 * h * h * curv[0], 0.5 * h * h * curv[1])
+        res, ex = _corrected(counter, v, idx, t, u, p, h, tol, full, bend)
         if res is None or not res.converged:
             spent += counter.f - f0
             h *= 0.5
@@ -309,6 +351,8 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
                 ex_c["inertia"] = r.factorization.inertia()
                 points.append(make_point(fold.u, fold.p, ex_c, r.iterations,
                                          counter.f - f0 + spent, None, True, len(points)))
+                if on_point is not None:
+                    on_point(points[-1], fold.u, fold.v)
                 if progress is not None:
                     progress(points[-1])
                 return finish(points, cusps, completed=True)
@@ -317,24 +361,34 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         points.append(make_point(res.u, res.p, ex, res.iterations, counter.f - f0 + spent,
                                  t_new[1], False, len(points)))
         spent = 0
+        if on_point is not None:
+            on_point(points[-1], res.u, ex["v"])
         if progress is not None:
             progress(points[-1])
-        if not keep_states and len(points) > 1:
-            pass  # states are not kept: the current one lives in u
+        if predictor == "quadratic":
+            curv = ((t_new[0] - t[0]) / h, (t_new[1] - t[1]) / h)
+            order = 3
         u, p, t, v, a_prev = res.u, res.p, t_new, ex["v"], ex["a"]
-        # aim at easy_iterations to easy_iterations + 1 iterations per point
-        grow = (1.5 if res.iterations <= easy_iterations
-                else 1.0 if res.iterations == easy_iterations + 1 else 0.7)
+        if target_correction is not None:
+            first = res.history[0][1] if res.history else 0.0
+            grow = 2.0 if not first > 0 else float(np.clip(
+                (target_correction / first) ** (1.0 / order), 0.5, 2.0))
+        else:  # aim at easy_iterations to easy_iterations + 1 iterations per point
+            grow = (1.5 if res.iterations <= easy_iterations
+                    else 1.0 if res.iterations == easy_iterations + 1 else 0.7)
         h = min(ds_max, max(ds_min, h * grow))
     return finish(points, cusps, reason="max_points")
 
 
-def _corrected(counter, v, idx, t, u, p, s, tol, full):
-    """The fold point at arclength ``s`` along ``t`` from ``(u, p)``."""
+def _corrected(counter, v, idx, t, u, p, s, tol, full, bend=None):
+    """The fold point at arclength ``s`` along ``t`` from ``(u, p)``; the
+    predictor is ``(u, p) + s t`` plus ``bend = (du, dq)`` if given."""
     t_u, t_q = t
     system = FoldSystem(counter, v, idx, arclength=(t_u, full(t_q), u, p, s))
-    q = p + s * full(t_q)
-    res = correct(counter, u + s * t_u, q, system, tol)
+    u_pred, q = u + s * t_u, p + s * full(t_q)
+    if bend is not None:
+        u_pred, q = u_pred + bend[0], q + full(bend[1])
+    res = correct(counter, u_pred, q, system, tol)
     return res, (system.last if res.converged else None)
 
 

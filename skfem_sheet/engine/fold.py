@@ -32,7 +32,7 @@ import numpy as np
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
-__all__ = ["FoldPoint", "fold_test", "locate_fold"]
+__all__ = ["FoldPoint", "equilibrium_on_section", "fold_on_section", "fold_test", "locate_fold"]
 
 
 @dataclass(frozen=True)
@@ -122,6 +122,46 @@ def fold_test(factorization, matvec, v0):
     return float(s[0]), v
 
 
+class _Bordered(Bordered):
+    """:class:`~skfem_sheet.engine.corrector.Bordered` with ``K^-1 B`` given
+    (solved beforehand together with other right-hand sides), and a
+    first back-substitution ``z = K^-1 f`` that may be given too."""
+
+    def __init__(self, factorization, matvec, B, C, D, X, refine: int = 1):
+        self.fact, self.matvec, self.refine = factorization, matvec, int(refine)
+        self.B = np.asarray(B, dtype=float).reshape(len(B), -1)
+        self.C = np.asarray(C, dtype=float).reshape(len(C), -1)
+        self.D = np.atleast_2d(np.asarray(D, dtype=float))
+        self.X = np.asarray(X, dtype=float).reshape(len(B), -1)
+        self.S = self.D - self.C.T @ self.X
+        if not np.all(np.isfinite(self.S)) or np.linalg.cond(self.S) > self.MAX_COND:
+            raise EngineFailure("singular bordered system")
+
+    #: Largest condition number of the Schur complement accepted.  With ``K``
+    #: singular to working precision (at a fold) the Schur complement of the
+    #: fold system carries ``1 / lambda_min(K)`` in the direction of the null
+    #: vector; near a cusp the fold row loses that term (``a -> 0``) and only
+    #: the arclength row keeps it, so its condition number reaches
+    #: ``1 / (lambda_min eps)`` although the bordered matrix is regular; the
+    #: step of iterative refinement on the whole bordered system recovers
+    #: the solution there.
+    MAX_COND = 1e17
+
+    def solve(self, f, g, z=None):
+        if z is None:
+            return super().solve(f, g)
+        f = np.asarray(f, dtype=float)
+        g = np.atleast_1d(np.asarray(g, dtype=float))
+        y = np.linalg.solve(self.S, g - self.C.T @ z)
+        x = z - self.X @ y
+        for _ in range(self.refine):
+            rf = f - self.matvec(x) - self.B @ y
+            rg = g - self.C.T @ x - self.D @ y
+            dx, dy = self._eliminate(rf, rg)
+            x, y = x + dx, y + dy
+        return x, y
+
+
 class FoldSystem:
     """Linearisation of ``R = 0, sigma = 0`` (+ an arclength row) in the
     free parameters ``idx``; the bordering vector is updated to the last null
@@ -133,18 +173,32 @@ class FoldSystem:
         self.last = None
 
     def sigma_derivatives(self, u, p, v, J):
+        """``d sigma/du`` and ``d sigma/dp_idx`` by differences of tangents:
+        central, or forward from ``J`` (one tangent per direction instead of
+        two) if the problem sets ``fd_one_sided = True`` (for the Newton
+        matrix only: ``sigma`` itself is exact, so the converged point is
+        not changed, only the rate of convergence)."""
         c = self.c
+        one_sided = bool(getattr(c, "fd_one_sided", False))
         eps = (c.fd_state_step * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
                / max(float(np.abs(v).max()), 1e-300))
-        Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
-        g_u = -(Jp @ v - Jm @ v) / (2 * eps)
+        Jv = J @ v
+        if one_sided:
+            g_u = -(c.jacobian(u + eps * v, p) @ v - Jv) / eps
+        else:
+            Jp, Jm = c.jacobian(u + eps * v, p), c.jacobian(u - eps * v, p)
+            g_u = -(Jp @ v - Jm @ v) / (2 * eps)
         g_p = []
         for i in self.idx:
             h = c.fd_parameter_step * max(1.0, abs(p[i]))
             pp, pm = p.copy(), p.copy()
             pp[i] += h
             pm[i] -= h
-            g_p.append(-float(v @ (c.jacobian(u, pp) @ v - c.jacobian(u, pm) @ v)) / (2 * h))
+            if one_sided:
+                g_p.append(-float(v @ (c.jacobian(u, pp) @ v - Jv)) / h)
+            else:
+                g_p.append(-float(v @ (c.jacobian(u, pp) @ v - c.jacobian(u, pm) @ v))
+                           / (2 * h))
         return g_u, np.array(g_p)
 
     def __call__(self, u, p):
@@ -157,13 +211,21 @@ class FoldSystem:
 
         def matvec(x):
             return J @ x
-        sigma, v = fold_test(fact, matvec, self.v0)
+        R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
+        # every right-hand side known now in one solve with several columns
+        # (K^-1 of the bordering vector, of dR/dp and of the residual):
+        # the back-substitutions cost less together than one by one
+        v0 = self.v0 / np.linalg.norm(self.v0)
+        Y = fact.solve(np.column_stack([v0, R_p, -r]))
+        Y = Y.reshape(len(r), -1)
+        fold = _Bordered(fact, matvec, v0[:, None], v0[:, None], np.zeros((1, 1)), Y[:, :1])
+        v, s_ = fold.solve(np.zeros(len(r)), np.ones(1), z=np.zeros(len(r)))
+        sigma = float(s_[0])
         # the derivatives of sigma need the v of its own normalisation (v0 . v = 1)
         g_u, g_p = self.sigma_derivatives(u, p, v, J)
         scale = float(np.abs(v).max())
         a = -float(g_u @ v) / scale**3  # for the unit null vector below
         v = _unit(v)
-        R_p = np.column_stack([c.dresidual(u, p, i) for i in self.idx])
         B, C = R_p, g_u[:, None]
         D = g_p[None, :]
         f, g = -r, [-sigma]
@@ -173,8 +235,8 @@ class FoldSystem:
             C = np.column_stack([g_u, c.dual(t_u)])
             D = np.vstack([g_p, t_p[self.idx]])
             g = [-sigma, -N]
-        M = Bordered(fact, matvec, B, C, D)
-        du, dq = M.solve(f, np.array(g, dtype=float))
+        M = _Bordered(fact, matvec, B, C, D, Y[:, 1:1 + len(self.idx)])
+        du, dq = M.solve(f, np.array(g, dtype=float), z=Y[:, -1])
         dp = np.zeros_like(p)
         dp[self.idx] = dq
         self.last = {"v": v, "sigma": sigma, "a": a, "R_p": R_p, "g_u": g_u, "g_p": g_p,
@@ -268,3 +330,119 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
     stats = counter.stats() - start
     return FoldPoint(**{**fold.__dict__, "stats": stats}), res
+
+
+def fold_on_section(problem, u, p, params, section, *, v0, tol: Tolerances = DEFAULT_TOLERANCES):
+    """The fold in two free parameters on a section of the fold curve.
+
+    Newton's method on ``R(u, p) = 0, sigma(u, p) = 0, <t_u, u> + t_p . p = c``
+    in ``(u, p_i, p_j)``: one point of the fold curve in ``(p_i, p_j)``,
+    picked by the linear condition ``section = (t_u, t_p, c)`` (``t_p`` over
+    all parameters; ``<., .>`` the problem's inner product), e.g. a fixed
+    value of one displacement, which parametrises the curve through a cusp
+    (where neither parameter does).  One factorisation per iteration.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+        Start (e.g. a fold of a coarser discretisation, carried over).
+    params : (int or str, int or str)
+        ``(p_i, p_j)``; the point reports its kind in ``p_i``.
+    section : (ndarray, ndarray, float)
+    v0 : ndarray
+        Bordering vector (an approximate null vector).
+    tol : Tolerances
+
+    Returns
+    -------
+    (FoldPoint or None, NewtonResult)
+
+    Examples
+    --------
+    The cusp normal form ``u^3 - mu u - lam = 0`` on the section ``u = 0.5``:
+    the fold there is ``mu = 3 u^2, lam = -2 u^3``.
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - p[1] * u - p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - p[1]), ("lam", "mu"))
+    >>> f, _ = fold_on_section(P, np.array([0.4]), np.array([-0.2, 0.6]), ("lam", "mu"),
+    ...                        (np.array([1.0]), np.zeros(2), 0.5), v0=np.ones(1))
+    >>> np.round(f.p, 12).tolist()
+    [-0.25, 0.75]
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start = counter.stats()
+    u = np.array(u, dtype=float)
+    p = np.array(p, dtype=float)
+    idx = [parameter_index(counter, q, len(p)) for q in params]
+    t_u, t_p, c = section
+    t_u = np.asarray(t_u, dtype=float)
+    t_p = np.asarray(t_p, dtype=float)
+    system = FoldSystem(counter, v0, idx,
+                        arclength=(t_u, t_p, np.zeros_like(u), np.zeros_like(p), float(c)))
+    res = correct(counter, u, p, system, tol)
+    if not res.converged:
+        return None, res
+    fold = fold_point(counter, res, idx[0], False, 0.0, None)
+    return FoldPoint(**{**fold.__dict__, "stats": counter.stats() - start}), res
+
+
+def equilibrium_on_section(problem, u, p, param, section, *,
+                           tol: Tolerances = DEFAULT_TOLERANCES):
+    """An equilibrium on a hyperplane, one parameter free.
+
+    Newton's method on ``R(u, p) = 0, <t_u, u> + t_p . p = c`` in
+    ``(u, p_param)`` (the bordered matrix ``[[K, R_p], [t_u^T, t_p]]`` stays
+    nonsingular at a fold in ``p_param`` if ``t_u`` is not orthogonal to
+    the null vector): e.g. a state carried over from another discretisation
+    near a fold, settled on the section ``<v0, u - u0> = 0`` of its
+    approximate null vector ``v0`` before the fold is located from it.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+    param : int or str
+    section : (ndarray, ndarray, float)
+        ``(t_u, t_p, c)``, ``t_p`` over all parameters.
+    tol : Tolerances
+
+    Returns
+    -------
+    NewtonResult
+
+    Examples
+    --------
+    On ``u^2 + lam = 0`` (a fold at ``lam = 0``) the section ``u = 0.5``
+    gives ``lam = -0.25``:
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**2 + p[0], lambda u, p: np.diag(2 * u), ("lam",))
+    >>> r = equilibrium_on_section(P, np.array([0.4]), np.array([0.0]), "lam",
+    ...                            (np.ones(1), np.zeros(1), 0.5))
+    >>> r.converged, round(float(r.p[0]), 12)
+    (True, -0.25)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    p = np.array(p, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    t_u, t_p, c = section
+    t_u = np.asarray(t_u, dtype=float)
+    t_p = np.asarray(t_p, dtype=float)
+
+    def linearize(uu, pp):
+        r = counter.residual(uu, pp)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = counter.jacobian(uu, pp)
+        fact = counter.factorize(J)
+        N = counter.inner(t_u, uu) + float(t_p @ pp) - float(c)
+        M = Bordered(fact, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
+                     counter.dual(t_u)[:, None], np.array([[t_p[i]]]))
+        du, dq = M.solve(-r, np.array([-N]))
+        dp = np.zeros_like(pp)
+        dp[i] = dq[0]
+        return counter.residual_norm(r), du, dp, fact, None
+
+    return correct(counter, np.array(u, dtype=float), p, linearize, tol)

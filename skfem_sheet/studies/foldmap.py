@@ -419,6 +419,16 @@ def critical_tip_width(df) -> dict:
 
 
 # -- the map from fold curves ----------------------------------------------------------------
+#: Fold curves on meshes finer than the first of these are traced coarse to
+#: fine: at that mesh size first, then points of it corrected level by level
+#: on the finer ones and on the curve's own mesh
+#: (``trace_fold_curve(..., coarse_hmax=COARSE_HMAX, fine_points=FINE_POINTS)``;
+#: a step from hmax 0.1 straight to 0.03 leaves some points outside the fold
+#: system's basin).
+COARSE_HMAX = (0.1, 0.06)
+#: Points of the coarse curve refined (besides its ends and the cusp's neighbours).
+FINE_POINTS = 6
+
 #: Input parameters of one fold curve of the map and their defaults: ``second``
 #: is the curve's second parameter, ``"tip_width"`` (the curve in (L, b/a)
 #: at a/R = ``curvature``) or ``"curvature"`` (the curve in (L, a/R) at
@@ -496,8 +506,11 @@ def _run_curve_point(point) -> dict:
     rec = _empty_curve_record(point, key)
     t0 = time.perf_counter()
     try:
+        fine = point["hmax"] < COARSE_HMAX[0]
         common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
-                      modulus=point["modulus"], solver=point["solver"], check_inertia=0)
+                      modulus=point["modulus"], solver=point["solver"],
+                      check_inertia=5 if fine else 0,
+                      coarse_hmax=COARSE_HMAX if fine else None, fine_points=FINE_POINTS)
         if point["second"] == "tip_width":
             c = trace_fold_curve(point["curvature"], **common)
         else:
@@ -514,13 +527,27 @@ def _run_curve_point(point) -> dict:
                    converged=bool(c.completed or not c.bistable), n_points=len(c.points),
                    factorizations=int(c.factorizations),
                    factorizations_per_point=float(c.factorizations_per_point),
-                   remeshes=int(c.remeshes), message=c.reason,
+                   remeshes=int(c.remeshes), message=_curve_message(c),
                    points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
                                       for p in c.points], compact=True),
                    wall_time_s=float(c.wall_time_s))
     except Exception as err:  # noqa: BLE001 - one bad curve must not stop the map
         record_failure(rec, err, t0)
     return finish_record(rec)
+
+
+def _curve_message(c) -> str:
+    """The curve's reason, and for a curve traced coarse to fine its levels."""
+    if getattr(c, "coarse_hmax", None) is None:
+        return c.reason
+    levels = "; ".join(f"hmax {st['hmax']:g}: {st['points']} points, {st['failed']} failed, "
+                       f"{st['factorizations']} factorisations"
+                       + (f" ({st['factorizations_per_point']:g} per point)"
+                          if st["factorizations_per_point"] is not None else "")
+                       for st in c.stages)
+    text = (f"coarse to fine: traced at hmax {c.coarse_hmax:g} ({c.coarse_points} points, "
+            f"{c.coarse_factorizations} factorisations); {levels}")
+    return f"{c.reason} [{text}]" if c.reason else text
 
 
 def _run_curve_chunk(points) -> list:

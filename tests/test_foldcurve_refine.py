@@ -1,0 +1,145 @@
+"""Fold curves coarse to fine, the mapped space, the quadratic predictor, the series."""
+import json
+
+import numpy as np
+import pytest
+
+from skfem_sheet.cli import main
+from skfem_sheet.engine import FunctionProblem, fold_curve, fold_on_section, locate_fold
+from skfem_sheet.engine.fold import equilibrium_on_section
+from skfem_sheet.foldcurve import SheetFoldProblem, trace_fold_curve
+from skfem_sheet.io import Series, read_pvd
+from skfem_sheet.params import ParameterError
+
+COARSE = 0.2
+
+
+def cusp_problem():
+    return FunctionProblem(lambda u, p: u**3 - p[1] * u - p[0],
+                           lambda u, p: np.diag(3 * u**2 - p[1]), ("lam", "mu"))
+
+
+def test_mapped_space_gives_the_residual_and_tangent_of_a_built_space():
+    """The space carried element by element onto the mapped mesh is the space
+    scikit-fem builds there: same residual and tangent (a squeezed, stretched
+    trapezoid)."""
+    P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
+    fast, built = P._sheet.at(1.4, 0.7), P._sheet.at(1.4, 0.7, bases=True)
+    w = P.full(np.random.default_rng(1).normal(size=len(P._sheet.free)) * 1e-3, [1.4, 0.7])
+    r1, r2 = fast.residual(w, 1.0)[0], built.residual(w, 1.0)[0]
+    np.testing.assert_allclose(r1, r2, rtol=1e-10, atol=1e-12 * np.abs(r2).max())
+    K1, K2 = fast.tangent(w), built.tangent(w)
+    assert abs(K1 - K2).max() <= 1e-10 * abs(K2).max()
+    assert fast.volume0 == pytest.approx(built.volume0, rel=1e-12)
+
+
+def test_fold_on_section_passes_the_cusp_of_the_normal_form():
+    """On the sections u = c the fold of u^3 - mu u - lam is (lam, mu) =
+    (-2 c^3, 3 c^2), also at the cusp c = 0, where neither parameter
+    parametrises the fold curve."""
+    P = cusp_problem()
+    for c in (-0.5, -1e-3, 0.0, 0.3):
+        f, res = fold_on_section(P, np.array([c + 0.05]), np.array([-2 * c**3 + 0.01,
+                                                                    3 * c**2 + 0.02]),
+                                 ("lam", "mu"), (np.ones(1), np.zeros(2), c), v0=np.ones(1))
+        assert f is not None, res.reason
+        np.testing.assert_allclose(f.p, [-2 * c**3, 3 * c**2], atol=1e-10)
+
+
+def test_equilibrium_on_section_settles_near_a_fold():
+    """u^3 - u + lam = 0 near its fold (u = 1/sqrt 3): on the section
+    u = 0.6 the equilibrium is lam = u - u^3 (the bordered matrix is regular
+    although K nearly vanishes)."""
+    P = FunctionProblem(lambda u, p: u**3 - u + p[0], lambda u, p: np.diag(3 * u**2 - 1),
+                        ("lam",))
+    r = equilibrium_on_section(P, np.array([0.58]), np.array([0.3]), "lam",
+                               (np.ones(1), np.zeros(1), 0.6))
+    assert r.converged
+    assert r.p[0] == pytest.approx(0.6 - 0.6**3, abs=1e-12)
+
+
+def test_quadratic_predictor_with_step_control_traces_the_cusp_curve():
+    """The quadratic predictor and the step control by the first correction
+    give the same curve and cusp (27 lam^2 = 4 mu^3, cusp at 0 to 1e-6)."""
+    P = cusp_problem()
+    start, _ = locate_fold(P, np.array([0.8]), np.array([-0.5, 1.0]), "lam")
+    c = fold_curve(P, start, ("lam", "mu"), ((-1.0, 1.0), (-0.5, 1.0)), ds=0.1, direction=-1,
+                   predictor="quadratic", target_correction=1e-3, ds_max=0.5)
+    assert c.completed, c.reason
+    lam, mu = c.params.T
+    np.testing.assert_allclose(27 * lam**2, 4 * mu**3, atol=1e-8)
+    assert len(c.cusps) == 1 and np.abs(c.cusps[0].p).max() < 1e-6
+    with pytest.raises(ParameterError, match="predictor"):
+        fold_curve(P, start, ("lam", "mu"), ((-1.0, 1.0), (-0.5, 1.0)), predictor="cubic")
+
+
+def test_on_point_sees_every_point_with_its_state_and_null_vector():
+    P = cusp_problem()
+    start, _ = locate_fold(P, np.array([0.8]), np.array([-0.5, 1.0]), "lam")
+    seen = []
+    c = fold_curve(P, start, ("lam", "mu"), ((-1.0, 1.0), (-0.5, 1.0)), ds=0.1, direction=-1,
+                   on_point=lambda pt, u, v: seen.append((pt.p.copy(), u.copy(), v.copy())))
+    assert len(seen) == len(c.points)
+    for (p, u, v), pt in zip(seen, c.points):
+        np.testing.assert_allclose(p, pt.p)
+        assert abs(3 * u[0] ** 2 - p[1]) < 1e-8  # u is the fold's state: K(u) = 0
+        assert abs(v[0]) == pytest.approx(1.0)
+
+
+def test_fold_curve_series_reads_back_with_meshio(tmp_path):
+    """Issue 15 item 1 for fold curves: one state per point of the curve, the
+    point index as time, the whole sheet mirrored (as Result.write)."""
+    meshio = pytest.importorskip("meshio")
+    s = Series()
+    c = trace_fold_curve(2.5, hmax=COARSE, max_points=3, check_inertia=0, series=s)
+    assert len(s) == len(c.points) == 3
+    pvd = s.write(tmp_path, "fold-curve")
+    steps = read_pvd(pvd)
+    assert len(steps) == len(c.points)
+    times = [t for t, _ in steps]
+    assert np.all(np.diff(times) > 0)
+    P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
+    n_half = P._sheet.base.sheet_mesh.n_vertices
+    for (_t, path), pt in zip(steps, c.points):
+        m = meshio.read(path)
+        assert n_half < len(m.points) < 2 * n_half  # mirrored: the whole sheet
+        assert np.isfinite(m.point_data["displacement"]).all()
+        assert m.points[:, 0].max() == pytest.approx(pt["length"], rel=1e-9)
+
+
+def test_coarse_hmax_is_checked():
+    with pytest.raises(ParameterError, match="coarse_hmax"):
+        trace_fold_curve(2.5, hmax=0.1, coarse_hmax=0.01)
+    with pytest.raises(ParameterError, match="fine_points"):
+        trace_fold_curve(2.5, hmax=0.1, coarse_hmax=0.2, fine_points=1)
+
+
+@pytest.mark.slow
+def test_refined_curve_agrees_with_the_curve_traced_at_the_fine_mesh():
+    """Coarse to fine (0.2 -> 0.15): the folds at b = 1 and the cusp as the
+    curve traced directly at hmax 0.15 (to the tolerance of a fold location
+    on another mesh of the same size: 0.003), a few factorisations per point."""
+    direct = trace_fold_curve(2.5, hmax=0.15, check_inertia=0)
+    fine = trace_fold_curve(2.5, hmax=0.15, coarse_hmax=0.2, fine_points=6, check_inertia=3)
+    assert fine.completed, fine.reason
+    assert fine.standout_length == pytest.approx(direct.standout_length, abs=3e-3)
+    assert fine.popup_length == pytest.approx(direct.popup_length, abs=3e-3)
+    assert fine.cusp["tip_width"] == pytest.approx(direct.cusp["tip_width"], abs=5e-3)
+    assert fine.coarse_hmax == 0.2 and fine.stages[-1]["hmax"] == 0.15
+    kinds = [p["kind"] for p in fine.points]
+    n = kinds.count("standout")
+    assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    for cross in fine.crossing[:1] + fine.crossing[-1:]:
+        assert cross is not None and abs(cross[1] - cross[0]) == 1
+
+
+@pytest.mark.slow
+def test_cli_fold_curve_writes_its_series(tmp_path):
+    """``fold-curve --series DIR`` writes DIR/<name>.pvd with one step per point."""
+    out = tmp_path / "c.json"
+    assert main(["fold-curve", "--curvature", "2.5", "--hmax", str(COARSE), "--series",
+                 str(tmp_path / "s"), "--json", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    steps = read_pvd(tmp_path / "s" / "fold-curve_aR2.5.pvd")
+    assert len(steps) == len(data["points"]) > 3
+    assert np.all(np.diff([t for t, _ in steps]) > 0)
