@@ -50,7 +50,9 @@ from tqdm.auto import tqdm
 from .analyses.observables import free_edge_nodes, tip_deflection
 from .analyses.stability import stability
 from .analyses.transfer import transfer
+from .assembly import Assembler
 from .continuation import follow_path
+from .discretisation import TaylorHoodSpace
 from .engine import EngineFailure, Problem, Tolerances, arclength, correct, natural
 from .engine.protocol import Counting
 from .linalg import make_linear_solver
@@ -166,7 +168,12 @@ class _Stretched:
         self._build(sheet)
 
     def _build(self, sheet):
-        self.base = SheetProblem(sheet, sheet_mesh(sheet, self.hmax, self.layers, half=self.half))
+        # the space and the assembler uncached (taylor_hood_space and
+        # assembler_for keep the last eight alive with their work buffers):
+        # the meshes of a continuation are its own, freed when it remeshes
+        mesh = sheet_mesh(sheet, self.hmax, self.layers, half=self.half)
+        space = TaylorHoodSpace.build(mesh)
+        self.base = SheetProblem(sheet, mesh, space=space, assembler=Assembler.build(space))
         self.solver = make_linear_solver(self.solver_name)
         if hasattr(self.solver, "attach"):
             self.solver.attach(self.base)
