@@ -146,7 +146,11 @@ class Bordered:
     def solve(self, f, g):
         f = np.asarray(f, dtype=float)
         g = np.atleast_1d(np.asarray(g, dtype=float))
-        x, y = self._eliminate(f, g)
+        return self.refined(f, g, *self._eliminate(f, g))
+
+    def refined(self, f, g, x, y):
+        """``(x, y)`` after ``refine`` steps of iterative refinement on the
+        bordered residual of ``[f; g]``."""
         for _ in range(self.refine):
             rf = f - self.matvec(x) - self.B @ y
             rg = g - self.C.T @ x - self.D @ y

@@ -153,13 +153,7 @@ class _Bordered(Bordered):
         f = np.asarray(f, dtype=float)
         g = np.atleast_1d(np.asarray(g, dtype=float))
         y = np.linalg.solve(self.S, g - self.C.T @ z)
-        x = z - self.X @ y
-        for _ in range(self.refine):
-            rf = f - self.matvec(x) - self.B @ y
-            rg = g - self.C.T @ x - self.D @ y
-            dx, dy = self._eliminate(rf, rg)
-            x, y = x + dx, y + dy
-        return x, y
+        return self.refined(f, g, z - self.X @ y, y)
 
 
 class FoldSystem:
