@@ -35,6 +35,7 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
@@ -49,17 +50,18 @@ from ..params import ParameterError
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
+    EachPoint,
     Job,
     as_values,
     check_table,
     execute,
+    failed_record,
     finish_record,
     hash_key,
     key_value,
     normalize_params,
     record_failure,
     typed_frame,
-    utc_now,
 )
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
@@ -198,16 +200,6 @@ def _run_map_point(point) -> dict:
     return finish_record(rec)
 
 
-def _run_map_chunk(points) -> list:
-    return [_run_map_point(p) for p in points]
-
-
-def _failed_map_point(point, message, error):
-    rec = _empty_record(point, _key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
-
-
 def _with_flags(rec):
     """A record with the ``*_snapped`` flags: journal lines written before they
     were columns say it in ``message`` (the sentences :func:`_run_map_point`
@@ -226,8 +218,9 @@ def _frame(records):
                        bools_or_na=_SNAPPED, bools=("bistable", "converged"), strings=_STR)
 
 
-_MAP_JOB = Job(task=_run_map_chunk, failed=_failed_map_point, frame=_frame, key_of=_key,
-               required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
+_MAP_JOB = Job(task=EachPoint(__name__, "_run_map_point"),
+               failed=functools.partial(failed_record, _empty_record, _key), frame=_frame,
+               key_of=_key, required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
 
 
 def _chunks(points, n_workers):
@@ -550,23 +543,14 @@ def _curve_message(c) -> str:
     return f"{c.reason} [{text}]" if c.reason else text
 
 
-def _run_curve_chunk(points) -> list:
-    return [_run_curve_point(p) for p in points]
-
-
-def _failed_curve_point(point, message, error):
-    rec = _empty_curve_record(point, _curve_key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
-
-
 def _curve_frame(records):
     return typed_frame(records, CURVE_COLUMNS, floats=_CURVE_FLOAT, ints=_CURVE_INT,
                        bools=("bistable", "completed", "converged"), strings=_CURVE_STR)
 
 
-_CURVE_JOB = Job(task=_run_curve_chunk, failed=_failed_curve_point, frame=_curve_frame,
-                 key_of=_curve_key, required=("curvature", "second", "converged"),
+_CURVE_JOB = Job(task=EachPoint(__name__, "_run_curve_point"),
+                 failed=functools.partial(failed_record, _empty_curve_record, _curve_key),
+                 frame=_curve_frame, key_of=_curve_key, required=("curvature", "second", "converged"),
                  desc="fold curves")
 
 

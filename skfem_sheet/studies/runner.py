@@ -27,13 +27,15 @@ for every study:
   (:func:`record_failure`); every record is stamped when it finishes
   (:func:`finish_record`: time, host, process) and made JSON-ready.
 
-A study describes its kind of point with a :class:`Job` and calls
-:func:`execute`.
+A study describes its kind of point with a :class:`Job` (usually with an
+:class:`EachPoint` task and a :func:`failed_record` for points whose task
+died) and calls :func:`execute`.
 """
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib
 import io
 import json
 import math
@@ -57,7 +59,7 @@ from tqdm.auto import tqdm
 from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
-__all__ = ["Job", "execute", "Journal", "journal_path", "read_journal", "write_table",
+__all__ = ["Job", "EachPoint", "failed_record", "execute", "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
            "hash_key", "as_values", "pool", "dask", "dask_client", "MAX_POINTS"]
@@ -331,6 +333,46 @@ class Job:
     key_of: Callable
     required: tuple
     desc: str
+
+
+@dataclass(frozen=True)
+class EachPoint:
+    """A study's chunk task: its points computed in sequence, one record each, in order.
+
+    ``EachPoint(module, name)(points)`` is ``[run(p) for p in points]`` with
+    ``run = module.name``, a module-level function ``run(point) -> record``
+    that catches the exceptions of its computation (:func:`record_failure`).
+    The function is looked up by name when the task runs: the task pickles as
+    two strings (a spawned worker imports the module), and a function
+    replaced on its module (a test's stand-in) is the one called.
+
+    Attributes
+    ----------
+    module : str
+        The module's import name (``__name__`` of the study).
+    name : str
+        The function's name in it.
+    """
+
+    module: str
+    name: str
+
+    def __call__(self, points) -> list:
+        run = getattr(importlib.import_module(self.module), self.name)
+        return [run(p) for p in points]
+
+
+def failed_record(empty_record, key_of, point, message, error) -> dict:
+    """The record of a point whose task failed outside its computation (e.g. its worker died).
+
+    ``empty_record(point, key_of(point))`` (the study's record with the
+    outputs missing) with ``message`` (the reason), ``error`` (its class, e.g.
+    ``"WorkerDied"``) and the ``finished_at`` stamp.  A study binds the first
+    two arguments (``functools.partial``) to make its :attr:`Job.failed`.
+    """
+    rec = empty_record(point, key_of(point))
+    rec.update(message=message, error=error, finished_at=utc_now())
+    return rec
 
 
 def execute(points, keys, job, *, table, workers, scheduler, progress, retry_failed, chunker):

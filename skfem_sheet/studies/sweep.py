@@ -83,6 +83,7 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import inspect
 import itertools
 import math
@@ -98,10 +99,12 @@ from ..solve import MAX_DOFS, Result, solve
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
+    EachPoint,
     Job,
     as_values,
     check_table,
     execute,
+    failed_record,
     finish_record,
     hash_key,
     journal_path,
@@ -111,7 +114,6 @@ from .runner import (
     normalize_params,
     record_failure,
     typed_frame,
-    utc_now,
 )
 from .runner import read_journal as _read_journal
 
@@ -316,16 +318,10 @@ def _run_point(point) -> dict:
     return finish_record(rec)
 
 
-def _run_chunk(points) -> list:
-    """Solve points in sequence (same mesh: the worker's mesh cache is reused)."""
-    return [_run_point(p) for p in points]
-
-
-def _failed(point, message, error):
-    """The record of a point whose task failed outside the solve (e.g. its worker died)."""
-    rec = _record(point, point_key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
+#: Solve points in sequence (same mesh: the worker's mesh cache is reused).
+_run_chunk = EachPoint(__name__, "_run_point")
+#: The record of a point whose task failed outside the solve (e.g. its worker died).
+_failed = functools.partial(failed_record, _record, point_key)
 
 
 # -- journal and table ---------------------------------------------------------------------
