@@ -15,6 +15,7 @@ import argparse
 import math
 
 from skfem_sheet import figures
+from skfem_sheet.cli.fold_map import add_method_arguments
 from skfem_sheet.figures.data import fold_curve_points
 from skfem_sheet.studies.foldmap import critical_curve, critical_tip_width, fold_curves, fold_map
 
@@ -46,11 +47,8 @@ def curves(args):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quality", choices=figures.QUALITIES, default="quick")
-    ap.add_argument("--method", choices=("curves", "grid"), default="curves")
-    ap.add_argument("--table", default=None,
-                    help="default skfem_sheet_data/foldcurves-QUALITY.csv (curves) or "
-                         "skfem_sheet_data/foldmap-QUALITY.csv (grid)")
-    ap.add_argument("--workers", type=int, default=None)
+    add_method_arguments(ap, table_help="default skfem_sheet_data/foldcurves-QUALITY.csv "
+                                        "(curves) or skfem_sheet_data/foldmap-QUALITY.csv (grid)")
     args = ap.parse_args(argv)
     if args.table is None:
         name = "foldcurves" if args.method == "curves" else "foldmap"

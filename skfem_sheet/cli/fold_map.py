@@ -23,7 +23,22 @@ from ..studies.foldmap import (
 from .ranges import parse_range, parse_values
 from .solve import solver_help
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "add_method_arguments", "METHODS"]
+
+#: The ways of computing the map (``--method``): fold curves (the default) or a grid.
+METHODS = ("curves", "grid")
+
+
+def add_method_arguments(p, table_help="results .csv or .parquet (resumable)") -> None:
+    """Add ``--method``, ``--table`` and ``--workers``: how and where the map is computed.
+
+    The options of the ``fold-map`` command that
+    ``benchmarks/bistability_map.py`` takes too (with its own ``table_help``).
+    """
+    p.add_argument("--method", choices=METHODS, default=METHODS[0],
+                   help="curves: one fold curve per a/R (default); grid: point by point")
+    p.add_argument("--table", default=None, help=table_help)
+    p.add_argument("--workers", type=int, default=None)
 
 
 def register(subparsers) -> None:
@@ -35,8 +50,7 @@ def register(subparsers) -> None:
                     "factor (b/a)* of each curvature, in parallel, into a resumable table: "
                     "from one traced fold curve per curvature (--method curves, default) or "
                     "for every (tip width, curvature) of a grid (--method grid).")
-    p.add_argument("--method", choices=("curves", "grid"), default="curves",
-                   help="curves: one fold curve per a/R (default); grid: point by point")
+    add_method_arguments(p)
     p.add_argument("--rectangle", type=float, default=None, metavar="A_R",
                    help="curves: also trace the curve in (L, a/R) at b/a = 1 from this a/R "
                         "(its cusp: where the rectangle becomes bistable)")
@@ -49,8 +63,6 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
     p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
     p.add_argument("--solver", default="auto", help=solver_help())
-    p.add_argument("--table", default=None, help="results .csv or .parquet (resumable)")
-    p.add_argument("--workers", type=int, default=None)
     p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
     p.add_argument("--retry-failed", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
