@@ -6,7 +6,9 @@ resumable table; prints L1*(1), L0*(1), the cusp (b/a)* per a/R and the
 rectangle's critical a/R.  ``--method grid``: the point-by-point fold map of
 :data:`skfem_sheet.figures.QUICK_GRID` (or the paper grid), L0*, L1*, the
 bistable flag per (b/a, a/R) and the bracketed (b/a)* (the reference).
-Re-running with the same table computes nothing again.
+Re-running with the same table computes nothing again.  The summary line's
+"sum of curve walls" (or "point walls") adds up each curve's (point's) own wall
+time: the work, not the elapsed time of a parallel run, and not CPU time.
 
     python benchmarks/bistability_map.py --table skfem_sheet_data/foldcurves-quick.csv
     python benchmarks/bistability_map.py --method grid --table skfem_sheet_data/foldmap-quick.csv
@@ -26,7 +28,8 @@ def curves(args):
     print(f"fold curves, quality {args.quality}: hmax = {points[0]['hmax']:g}; {len(df)} "
           f"curves, {int(df.completed.sum())} completed, "
           f"{int((~df.bistable & df.converged).sum())} not bistable, "
-          f"{int((~df.converged).sum())} failed; {df.wall_time_s.sum() / 60:.0f} CPU-min")
+          f"{int((~df.converged).sum())} failed; sum of curve walls "
+          f"{df.wall_time_s.sum() / 60:.0f} min")
 
     def f(x):
         return "   none" if not math.isfinite(x) else f"{x:7.4f}"
@@ -61,7 +64,7 @@ def main(argv=None):
     print(f"fold map, quality {args.quality}: hmax = {p0['hmax']:g}, L/a in "
           f"[{p0['length_min']:g}, {p0['length_max']:g}], step {p0['step']:g}, folds to "
           f"+-{p0['tol']:g}; {len(df)} points, {int(df.converged.sum())} converged, "
-          f"{df.wall_time_s.sum() / 60:.0f} CPU-min")
+          f"sum of point walls {df.wall_time_s.sum() / 60:.0f} min")
 
     def f(x):
         return "   none" if not math.isfinite(x) else f"{x:7.3f}"
