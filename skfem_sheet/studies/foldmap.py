@@ -53,14 +53,14 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
-    check_table,
-    execute,
     failed_record,
     finish_record,
     hash_key,
     key_value,
     normalize_params,
     record_failure,
+    run_points,
+    study_points,
     typed_frame,
 )
 
@@ -262,20 +262,10 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     >>> float(df.popup_length[0]) != float(df.popup_length[0])  # NaN: no fold in range
     True
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use map_points(...)), got one dict")
-    points = [_normalize(p) for p in points]
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = check_table(table) if table is not None else None
-    keys = [_key(p) for p in points]
-    done, stats = execute(points, keys, _MAP_JOB, table=path, workers=workers,
-                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
-                          chunker=_chunks)
-    df = _frame(done[k] for k in keys)
+    df, stats = run_points(
+        study_points(points, _normalize, "map_points"), _key, _MAP_JOB, table=table,
+        workers=workers, scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+        chunker=_chunks)
     df.attrs["fold_map"] = stats
     return df
 
@@ -572,21 +562,10 @@ def fold_curves(points, table=None, workers=None, scheduler=None, progress=True,
         One row per curve (:data:`CURVE_COLUMNS`); read it with
         :func:`curve_halves` and :func:`critical_curve`.
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use curve_points(...)), got one "
-                             "dict")
-    points = [_normalize_curve(p) for p in points]
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = check_table(table) if table is not None else None
-    keys = [_curve_key(p) for p in points]
-    done, stats = execute(points, keys, _CURVE_JOB, table=path, workers=workers,
-                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
-                          chunker=_curve_chunks)
-    df = _curve_frame(done[k] for k in keys)
+    df, stats = run_points(
+        study_points(points, _normalize_curve, "curve_points"), _curve_key, _CURVE_JOB,
+        table=table, workers=workers, scheduler=scheduler, progress=progress,
+        retry_failed=retry_failed, chunker=_curve_chunks)
     df.attrs["fold_curves"] = stats
     return df
 

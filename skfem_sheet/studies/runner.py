@@ -29,7 +29,7 @@ for every study:
 
 A study describes its kind of point with a :class:`Job` (usually with an
 :class:`EachPoint` task and a :func:`failed_record` for points whose task
-died) and calls :func:`execute`.
+died) and calls :func:`run_points` (argument checks, then :func:`execute`).
 """
 from __future__ import annotations
 
@@ -59,7 +59,8 @@ from tqdm.auto import tqdm
 from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
-__all__ = ["Job", "EachPoint", "failed_record", "execute", "Journal", "journal_path", "read_journal", "write_table",
+__all__ = ["Job", "EachPoint", "failed_record", "execute", "run_points", "study_points",
+           "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
            "hash_key", "as_values", "pool", "dask", "dask_client", "MAX_POINTS"]
@@ -464,6 +465,39 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
             write_table(job.frame(table_records(disk, order)), table)
     return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
                   "journal": jpath}
+
+
+def study_points(points, normalize, maker) -> list:
+    """A study's ``points`` argument normalised (``normalize(point)`` each).
+
+    ``ParameterError`` for a single dict given instead of a list (``maker``
+    names the function that makes the list, e.g. ``"grid"``).
+    """
+    if isinstance(points, dict):
+        raise ParameterError(f"points must be a list of dicts (use {maker}(...)), got one dict")
+    return [normalize(p) for p in points]
+
+
+def run_points(points, key_of, job, *, table, workers, scheduler, progress, retry_failed,
+               chunker):
+    """Check the executor and table arguments, then :func:`execute` the points.
+
+    ``key_of(point)`` is each point's key.  ``ParameterError`` for
+    ``workers`` with ``scheduler``, ``workers`` not an integer >= 1, or a bad
+    ``table`` (:func:`check_table`).  Returns ``(df, stats)``: the table of
+    ``points`` in their order (``job.frame``, one row per point, a point
+    given twice twice) and the statistics of :func:`execute`.
+    """
+    if scheduler is not None and workers is not None:
+        raise ParameterError("workers must not be given with scheduler (Dask decides)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    path = check_table(table) if table is not None else None
+    keys = [key_of(p) for p in points]
+    done, stats = execute(points, keys, job, table=path, workers=workers, scheduler=scheduler,
+                          progress=progress, retry_failed=retry_failed, chunker=chunker)
+    return job.frame(done[k] for k in keys), stats
 
 
 # -- local processes -----------------------------------------------------------------------

@@ -102,8 +102,6 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
-    check_table,
-    execute,
     failed_record,
     finish_record,
     hash_key,
@@ -113,6 +111,8 @@ from .runner import (
     normalize_number,
     normalize_params,
     record_failure,
+    run_points,
+    study_points,
     typed_frame,
 )
 from .runner import read_journal as _read_journal
@@ -429,24 +429,13 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
     >>> len(df), bool(df.converged[0]), round(float(df.deflection[0]), 3)
     (1, True, 0.011)
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use grid(...)), got one dict")
-    points = [normalize_point(p) for p in points]
+    points = study_points(points, normalize_point, "grid")
     if len(points) > MAX_POINTS:
         raise ParameterError(f"points must be at most {MAX_POINTS}, got {len(points)}")
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
     if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
         raise ParameterError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
-    path = check_table(table) if table is not None else None
-
-    keys = [point_key(p) for p in points]
-    done, stats = execute(points, keys, _JOB, table=path, workers=workers, scheduler=scheduler,
-                          progress=progress, retry_failed=retry_failed,
-                          chunker=lambda todo, n: _chunks(todo, n, chunk_size))
-    df = _frame(done[k] for k in keys)
+    df, stats = run_points(points, point_key, _JOB, table=table, workers=workers,
+                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                           chunker=lambda todo, n: _chunks(todo, n, chunk_size))
     df.attrs["sweep"] = stats
     return df
