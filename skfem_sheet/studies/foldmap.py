@@ -39,7 +39,6 @@ import functools
 import itertools
 import json
 import math
-import time
 
 import numpy as np
 
@@ -53,12 +52,11 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
+    computed_record,
     failed_record,
-    finish_record,
     hash_key,
     key_value,
     normalize_params,
-    record_failure,
     run_points,
     study_points,
     typed_frame,
@@ -165,44 +163,42 @@ def _nan(x):
 
 def _run_map_point(point) -> dict:
     """Fold lengths of one normalised map point; every exception becomes a failed record."""
-    key = _key(point)
-    rec = _empty_record(point, key)
-    t0 = time.perf_counter()
-    try:
-        r = fold_lengths(point["tip_width"], point["curvature"],
-                         lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
-                         layers=point["layers"], solver=point["solver"], step=point["step"],
-                         tol=point["tol"], thickness=point["thickness"],
-                         modulus=point["modulus"])
-        up, down = r.increasing, r.decreasing
-        notes = []
-        if up.start_snapped:
-            notes.append(f"the curvature-dominated branch does not exist at L/a = "
-                         f"{point['length_min']:g} (lower length_min)")
-        if down.start_snapped:
-            notes.append(f"the gravity-dominated branch does not exist at L/a = "
-                         f"{point['length_max']:g} (raise length_max)")
-        width = (r.standout_length - r.popup_length
-                 if r.popup_length is not None and r.standout_length is not None else None)
-        rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
-                   bistable=bool(r.bistable), bistable_width=_nan(width),
-                   converged=not notes, message="; ".join(notes),
-                   curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
-                   curvature_dominated_snapped=bool(up.start_snapped),
-                   gravity_dominated_snapped=bool(down.start_snapped),
-                   curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
-                   newton_iterations=int(up.newton_iterations
-                                         + (down.newton_iterations if down is not up else 0)),
-                   wall_time_s=float(r.wall_time_s))
-        rec["transition_length"] = _nan(transition_length(rec))
-    except Exception as err:  # noqa: BLE001 - one bad point must not stop the map
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, _key, _empty_record, _fill_map_record)
+
+
+def _fill_map_record(point, rec) -> None:
+    """Put the fold lengths and branch curves of a map point into its record."""
+    r = fold_lengths(point["tip_width"], point["curvature"],
+                     lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
+                     layers=point["layers"], solver=point["solver"], step=point["step"],
+                     tol=point["tol"], thickness=point["thickness"],
+                     modulus=point["modulus"])
+    up, down = r.increasing, r.decreasing
+    notes = []
+    if up.start_snapped:
+        notes.append(f"the curvature-dominated branch does not exist at L/a = "
+                     f"{point['length_min']:g} (lower length_min)")
+    if down.start_snapped:
+        notes.append(f"the gravity-dominated branch does not exist at L/a = "
+                     f"{point['length_max']:g} (raise length_max)")
+    width = (r.standout_length - r.popup_length
+             if r.popup_length is not None and r.standout_length is not None else None)
+    rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
+               bistable=bool(r.bistable), bistable_width=_nan(width),
+               converged=not notes, message="; ".join(notes),
+               curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
+               curvature_dominated_snapped=bool(up.start_snapped),
+               gravity_dominated_snapped=bool(down.start_snapped),
+               curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
+               newton_iterations=int(up.newton_iterations
+                                     + (down.newton_iterations if down is not up else 0)),
+               wall_time_s=float(r.wall_time_s))
+    rec["transition_length"] = _nan(transition_length(rec))
 
 
 def _with_flags(rec):
     """A record with the ``*_snapped`` flags: journal lines written before they
-    were columns say it in ``message`` (the sentences :func:`_run_map_point`
+    were columns say it in ``message`` (the sentences :func:`_fill_map_record`
     writes); a failed point (``error``) leaves them unknown."""
     if all(k in rec for k in _SNAPPED):
         return rec
@@ -485,38 +481,36 @@ def _empty_curve_record(point, key):
 
 def _run_curve_point(point) -> dict:
     """One fold curve; every exception becomes a failed record."""
-    key = _curve_key(point)
-    rec = _empty_curve_record(point, key)
-    t0 = time.perf_counter()
-    try:
-        fine = point["hmax"] < COARSE_HMAX[0]
-        common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
-                      modulus=point["modulus"], solver=point["solver"],
-                      check_inertia=5 if fine else 0,
-                      coarse_hmax=COARSE_HMAX if fine else None, fine_points=FINE_POINTS)
-        if point["second"] == "tip_width":
-            c = trace_fold_curve(point["curvature"], **common)
-        else:
-            c = trace_curvature_fold_curve(point["tip_width"], point["curvature"], **common)
-        j = c.second
-        cusp = c.cusp or {}
-        rec.update(standout_length=_nan(c.standout_length), popup_length=_nan(c.popup_length),
-                   cusp_tip_width=_nan(cusp.get("tip_width", point["tip_width"]
-                                                if cusp and j == "curvature" else None)),
-                   cusp_curvature=_nan(cusp.get("curvature", point["curvature"]
-                                                if cusp and j == "tip_width" else None)),
-                   cusp_length=_nan(cusp.get("length")), cusp_located=c.cusp_located,
-                   bistable=bool(c.bistable), completed=bool(c.completed),
-                   converged=bool(c.completed or not c.bistable), n_points=len(c.points),
-                   factorizations=int(c.factorizations),
-                   factorizations_per_point=float(c.factorizations_per_point),
-                   remeshes=int(c.remeshes), message=_curve_message(c),
-                   points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
-                                      for p in c.points], compact=True),
-                   wall_time_s=float(c.wall_time_s))
-    except Exception as err:  # noqa: BLE001 - one bad curve must not stop the map
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, _curve_key, _empty_curve_record, _fill_curve_record)
+
+
+def _fill_curve_record(point, rec) -> None:
+    """Trace the fold curve of a point and put it into its record."""
+    fine = point["hmax"] < COARSE_HMAX[0]
+    common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
+                  modulus=point["modulus"], solver=point["solver"],
+                  check_inertia=5 if fine else 0,
+                  coarse_hmax=COARSE_HMAX if fine else None, fine_points=FINE_POINTS)
+    if point["second"] == "tip_width":
+        c = trace_fold_curve(point["curvature"], **common)
+    else:
+        c = trace_curvature_fold_curve(point["tip_width"], point["curvature"], **common)
+    j = c.second
+    cusp = c.cusp or {}
+    rec.update(standout_length=_nan(c.standout_length), popup_length=_nan(c.popup_length),
+               cusp_tip_width=_nan(cusp.get("tip_width", point["tip_width"]
+                                            if cusp and j == "curvature" else None)),
+               cusp_curvature=_nan(cusp.get("curvature", point["curvature"]
+                                            if cusp and j == "tip_width" else None)),
+               cusp_length=_nan(cusp.get("length")), cusp_located=c.cusp_located,
+               bistable=bool(c.bistable), completed=bool(c.completed),
+               converged=bool(c.completed or not c.bistable), n_points=len(c.points),
+               factorizations=int(c.factorizations),
+               factorizations_per_point=float(c.factorizations_per_point),
+               remeshes=int(c.remeshes), message=_curve_message(c),
+               points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
+                                  for p in c.points], compact=True),
+               wall_time_s=float(c.wall_time_s))
 
 
 def _curve_message(c) -> str:

@@ -59,7 +59,7 @@ from tqdm.auto import tqdm
 from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
-__all__ = ["Job", "EachPoint", "failed_record", "execute", "run_points", "study_points",
+__all__ = ["Job", "EachPoint", "computed_record", "failed_record", "execute", "run_points", "study_points",
            "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
@@ -179,6 +179,24 @@ def finish_record(rec) -> dict:
     rec["host"] = socket.gethostname()
     rec["pid"] = os.getpid()
     return {k: _pyval(v) for k, v in rec.items()}
+
+
+def computed_record(point, key_of, empty_record, fill) -> dict:
+    """The finished record of one point, computed in this process.
+
+    ``empty_record(point, key_of(point))`` (the outputs missing), filled in
+    place by ``fill(point, rec)``; an ``Exception`` raised by ``fill`` goes
+    into the record (:func:`record_failure`, with the wall time since the
+    record was made) instead of stopping the study.  Stamped and JSON-ready
+    (:func:`finish_record`).
+    """
+    rec = empty_record(point, key_of(point))
+    t0 = time.perf_counter()
+    try:
+        fill(point, rec)
+    except Exception as err:  # noqa: BLE001 - one bad point must not stop the study
+        record_failure(rec, err, t0)
+    return finish_record(rec)
 
 
 # -- journal and table ---------------------------------------------------------------------

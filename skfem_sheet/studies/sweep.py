@@ -87,7 +87,6 @@ import functools
 import inspect
 import itertools
 import math
-import time
 
 import numpy as np
 
@@ -102,15 +101,14 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
+    computed_record,
     failed_record,
-    finish_record,
     hash_key,
     journal_path,
     key_value,
     normalize_int,
     normalize_number,
     normalize_params,
-    record_failure,
     run_points,
     study_points,
     typed_frame,
@@ -304,18 +302,16 @@ def _record(point, key):
 
 def _run_point(point) -> dict:
     """Solve one normalised point; every ``Exception`` becomes a failed record."""
-    key = point_key(point)
-    rec = _record(point, key)
-    t0 = time.perf_counter()
-    try:
-        sheet = Sheet(**{k: point[k] for k in _SHEET})
-        r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
-                  solver=point["solver"], on_failure="return", progress=False,
-                  **{name: rec[name] for name in OPTIONS})
-        rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
-    except Exception as err:  # noqa: BLE001 - one bad point must not stop the sweep
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, point_key, _record, _fill_record)
+
+
+def _fill_record(point, rec) -> None:
+    """Solve a sweep point and put the outputs of ``Result.to_record`` into its record."""
+    sheet = Sheet(**{k: point[k] for k in _SHEET})
+    r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
+              solver=point["solver"], on_failure="return", progress=False,
+              **{name: rec[name] for name in OPTIONS})
+    rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
 
 
 #: Solve points in sequence (same mesh: the worker's mesh cache is reused).
