@@ -43,13 +43,14 @@ except ImportError:  # run from a checkout without installing: use the repositor
     import skfem_sheet  # noqa: F401
 
 from skfem_sheet import Sheet, solve  # noqa: E402  (after the path fix)
+from skfem_sheet.continuation import PATHS  # noqa: E402
 
 __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "local_orders",
            "nested_family",
            "run_isolated", "RunStore", "code_version", "available_backends", "solve_supports",
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
-           "open_store", "warn_if_busy", "interrupted", "random_sheets", "solve_key",
+           "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
            "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
            "run_journalled"]
 
@@ -704,6 +705,11 @@ def random_sheets(n, seed, thickness=0.03, modulus=735.0):
     for v in (thickness, modulus):
         cols.append(rng.uniform(v[0], v[1], n) if isinstance(v, tuple) else np.full(n, v))
     return [dict(zip(SHEET_FIELDS, (float(x) for x in row))) for row in zip(*cols)]
+
+
+def both_paths(points):
+    """Every ``(point, load path)`` pair: each point along both load paths, in order."""
+    return [(p, path) for p in points for path in PATHS]
 
 
 def solve_key(p, path):

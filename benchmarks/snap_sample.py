@@ -31,15 +31,10 @@ import numpy as np
 _HERE = os.path.dirname(os.path.abspath(__file__))
 if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
     sys.path.insert(0, _HERE)
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(_HERE))
 
-from skfem_sheet.continuation import PATHS  # noqa: E402
-
-from _common import (  # noqa: E402  (after the path fix)
+from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
     add_shard_option,
+    both_paths,
     parse_shard,
     random_sheets,
     run_journalled,
@@ -116,7 +111,7 @@ def main(argv=None):
     add_shard_option(ap)
     args = ap.parse_args(argv)
     shard = parse_shard(args.shard)
-    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
+    todo = both_paths(sample(args.n, args.seed))
 
     def report_one(i, n, p, path, rec):
         print(f"[{i + 1}/{n}] {path} L={p['length']:.2f} a/R={p['curvature']:.2f}: "

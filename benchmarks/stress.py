@@ -26,15 +26,10 @@ import sys
 _HERE = os.path.dirname(os.path.abspath(__file__))
 if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
     sys.path.insert(0, _HERE)
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(_HERE))
 
-from skfem_sheet.continuation import PATHS  # noqa: E402
-
-from _common import (  # noqa: E402  (after the path fix)
+from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
     add_shard_option,
+    both_paths,
     parse_shard,
     random_sheets,
     read_jsonl,
@@ -88,7 +83,7 @@ def main(argv=None):
                     help="work through the shard from its end (a second worker on a shard)")
     args = ap.parse_args(argv)
     shard = parse_shard(args.shard)
-    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
+    todo = both_paths(sample(args.n, args.seed))
     run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax), shard=shard,
                    reverse=args.reverse, progress="stress")
     if shard[1] > 1:
