@@ -17,7 +17,7 @@ import argparse
 import math
 
 from skfem_sheet import figures
-from skfem_sheet.cli.fold_map import add_method_arguments
+from skfem_sheet.cli.fold_map import add_method_arguments, print_curve_table
 from skfem_sheet.figures.data import fold_curve_points
 from skfem_sheet.studies.foldmap import critical_curve, critical_tip_width, fold_curves, fold_map
 
@@ -31,17 +31,7 @@ def curves(args):
           f"{int((~df.converged).sum())} failed; sum of curve walls "
           f"{df.wall_time_s.sum() / 60:.0f} min")
 
-    def f(x):
-        return "   none" if not math.isfinite(x) else f"{x:7.4f}"
-
-    print("  curve       a/R      L1*      L0*  cusp b/a  cusp a/R   cusp L  points  fact/pt"
-          "  wall s")
-    for _, r in df.iterrows():
-        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
-        print(f"  {which}  {r.curvature:5.2f}  {f(r.standout_length)}  {f(r.popup_length)}"
-              f"  {f(r.cusp_tip_width)}   {f(r.cusp_curvature)}  {f(r.cusp_length)}  "
-              f"{int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
-              + ("" if r.completed else f"  {r.message or r.error}"))
+    print_curve_table(df)
     print("critical curve (b/a)*, a/R, L*:")
     for b, c, L in critical_curve(df):
         print(f"  ({b:.4f}, {c:.3f}, {L:.4f})")

@@ -23,7 +23,7 @@ from ..studies.foldmap import (
 from .ranges import parse_range, parse_values
 from .solve import solver_help
 
-__all__ = ["register", "run", "add_method_arguments", "METHODS"]
+__all__ = ["register", "run", "add_method_arguments", "print_curve_table", "METHODS"]
 
 #: The ways of computing the map (``--method``): fold curves (the default) or a grid.
 METHODS = ("curves", "grid")
@@ -69,6 +69,28 @@ def register(subparsers) -> None:
     p.set_defaults(run=run)
 
 
+def _fmt4(x):
+    return "   none" if not np.isfinite(x) else f"{x:7.4f}"
+
+
+def print_curve_table(df) -> None:
+    """Print a fold-curve table (:func:`~skfem_sheet.studies.foldmap.fold_curves`), a line a curve.
+
+    a/R, the curve's plane, L1*, L0*, the cusp, the points, factorisations
+    per point, wall time, and the message of a curve not completed (also
+    ``benchmarks/bistability_map.py``'s table).
+    """
+    print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
+          "  wall s")
+    for _, r in df.iterrows():
+        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
+        print(f"{r.curvature:5.2f}  {which}  {_fmt4(r.standout_length)}  "
+              f"{_fmt4(r.popup_length)}  {_fmt4(r.cusp_tip_width)}   "
+              f"{_fmt4(r.cusp_curvature)}  {_fmt4(r.cusp_length)}  {int(r.n_points):6d}  "
+              f"{r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
+              + ("" if r.completed else f"  {r.message}"))
+
+
 def _run_curves(args, tip_widths) -> int:
     curvatures = parse_values(args.curvatures, "curvatures")
     points = curve_points(curvatures, hmax=args.hmax, layers=args.layers, solver=args.solver,
@@ -76,18 +98,8 @@ def _run_curves(args, tip_widths) -> int:
     df = fold_curves(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
                      progress=not args.quiet, retry_failed=args.retry_failed)
 
-    def fmt(x):
-        return "   none" if not np.isfinite(x) else f"{x:7.4f}"
-
     print(f"hmax = {args.hmax:g}, fold curves")
-    print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
-          "  wall s")
-    for _, r in df.iterrows():
-        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
-        print(f"{r.curvature:5.2f}  {which}  {fmt(r.standout_length)}  {fmt(r.popup_length)}"
-              f"  {fmt(r.cusp_tip_width)}   {fmt(r.cusp_curvature)}  {fmt(r.cusp_length)}"
-              f"  {int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
-              + ("" if r.completed else f"  {r.message}"))
+    print_curve_table(df)
     print("  a/R    b/a   L0* pop-up  L1* standout  (interpolated on the fold curves)")
     for _, r in df[df["second"] == "tip_width"].iterrows():
         halves = curve_halves(r)
@@ -96,8 +108,8 @@ def _run_curves(args, tip_widths) -> int:
         (bs, Ls), (bp, Lp) = halves["standout"], halves["popup"]
         for b in tip_widths:
             if halves["cusp"][0] < b <= min(bs.max(), bp.max()) + 1e-12:
-                print(f"{r.curvature:5.2f}  {b:5.2f}      {fmt(np.interp(b, bp, Lp))}       "
-                      f"{fmt(np.interp(b, bs, Ls))}")
+                print(f"{r.curvature:5.2f}  {b:5.2f}      {_fmt4(np.interp(b, bp, Lp))}       "
+                      f"{_fmt4(np.interp(b, bs, Ls))}")
     crit = critical_curve(df)
     if crit:
         print("critical curve (b/a)*, a/R, L*: "
