@@ -52,12 +52,13 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
+    check_run,
     computed_record,
+    execute,
     failed_record,
     hash_key,
     key_value,
     normalize_params,
-    run_points,
     study_points,
     typed_frame,
 )
@@ -258,10 +259,13 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     >>> float(df.popup_length[0]) != float(df.popup_length[0])  # NaN: no fold in range
     True
     """
-    df, stats = run_points(
-        study_points(points, _normalize, "map_points"), _key, _MAP_JOB, table=table,
-        workers=workers, scheduler=scheduler, progress=progress, retry_failed=retry_failed,
-        chunker=_chunks)
+    points = study_points(points, _normalize, "map_points")
+    path = check_run(table, workers, scheduler)
+    keys = [_key(p) for p in points]
+    done, stats = execute(points, keys, _MAP_JOB, table=path, workers=workers,
+                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                          chunker=_chunks)
+    df = _frame(done[k] for k in keys)
     df.attrs["fold_map"] = stats
     return df
 
@@ -556,10 +560,13 @@ def fold_curves(points, table=None, workers=None, scheduler=None, progress=True,
         One row per curve (:data:`CURVE_COLUMNS`); read it with
         :func:`curve_halves` and :func:`critical_curve`.
     """
-    df, stats = run_points(
-        study_points(points, _normalize_curve, "curve_points"), _curve_key, _CURVE_JOB,
-        table=table, workers=workers, scheduler=scheduler, progress=progress,
-        retry_failed=retry_failed, chunker=_curve_chunks)
+    points = study_points(points, _normalize_curve, "curve_points")
+    path = check_run(table, workers, scheduler)
+    keys = [_curve_key(p) for p in points]
+    done, stats = execute(points, keys, _CURVE_JOB, table=path, workers=workers,
+                          scheduler=scheduler, progress=progress, retry_failed=retry_failed,
+                          chunker=_curve_chunks)
+    df = _curve_frame(done[k] for k in keys)
     df.attrs["fold_curves"] = stats
     return df
 

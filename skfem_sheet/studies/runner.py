@@ -29,7 +29,8 @@ for every study:
 
 A study describes its kind of point with a :class:`Job` (usually with an
 :class:`EachPoint` task and a :func:`failed_record` for points whose task
-died) and calls :func:`run_points` (argument checks, then :func:`execute`).
+died), checks its arguments (:func:`study_points`, :func:`check_run`) and calls
+:func:`execute`.
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ from tqdm.auto import tqdm
 from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
-__all__ = ["Job", "EachPoint", "computed_record", "failed_record", "execute", "run_points", "study_points",
+__all__ = ["Job", "EachPoint", "computed_record", "failed_record", "execute", "check_run", "study_points",
            "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
@@ -496,26 +497,18 @@ def study_points(points, normalize, maker) -> list:
     return [normalize(p) for p in points]
 
 
-def run_points(points, key_of, job, *, table, workers, scheduler, progress, retry_failed,
-               chunker):
-    """Check the executor and table arguments, then :func:`execute` the points.
+def check_run(table, workers, scheduler):
+    """Check a study's ``table``, ``workers`` and ``scheduler`` arguments; the table's path.
 
-    ``key_of(point)`` is each point's key.  ``ParameterError`` for
-    ``workers`` with ``scheduler``, ``workers`` not an integer >= 1, or a bad
-    ``table`` (:func:`check_table`).  Returns ``(df, stats)``: the table of
-    ``points`` in their order (``job.frame``, one row per point, a point
-    given twice twice) and the statistics of :func:`execute`.
+    ``ParameterError`` for ``workers`` with ``scheduler``, ``workers`` not an
+    integer >= 1, or a bad ``table`` (:func:`check_table`); None for no table.
     """
     if scheduler is not None and workers is not None:
         raise ParameterError("workers must not be given with scheduler (Dask decides)")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
                                 or workers < 1):
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = check_table(table) if table is not None else None
-    keys = [key_of(p) for p in points]
-    done, stats = execute(points, keys, job, table=path, workers=workers, scheduler=scheduler,
-                          progress=progress, retry_failed=retry_failed, chunker=chunker)
-    return job.frame(done[k] for k in keys), stats
+    return check_table(table) if table is not None else None
 
 
 # -- local processes -----------------------------------------------------------------------

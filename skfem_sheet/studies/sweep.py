@@ -101,7 +101,9 @@ from .runner import (
     EachPoint,
     Job,
     as_values,
+    check_run,
     computed_record,
+    execute,
     failed_record,
     hash_key,
     journal_path,
@@ -109,7 +111,6 @@ from .runner import (
     normalize_int,
     normalize_number,
     normalize_params,
-    run_points,
     study_points,
     typed_frame,
 )
@@ -430,8 +431,11 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
         raise ParameterError(f"points must be at most {MAX_POINTS}, got {len(points)}")
     if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
         raise ParameterError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
-    df, stats = run_points(points, point_key, _JOB, table=table, workers=workers,
-                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,
-                           chunker=lambda todo, n: _chunks(todo, n, chunk_size))
+    path = check_run(table, workers, scheduler)
+    keys = [point_key(p) for p in points]
+    done, stats = execute(points, keys, _JOB, table=path, workers=workers, scheduler=scheduler,
+                          progress=progress, retry_failed=retry_failed,
+                          chunker=lambda todo, n: _chunks(todo, n, chunk_size))
+    df = _frame(done[k] for k in keys)
     df.attrs["sweep"] = stats
     return df
