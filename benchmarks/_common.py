@@ -31,8 +31,10 @@ import subprocess
 import sys
 import tempfile
 import time
+import traceback
 
 import numpy as np
+from tqdm.auto import tqdm
 
 try:
     import skfem_sheet  # noqa: F401
@@ -40,12 +42,17 @@ except ImportError:  # run from a checkout without installing: use the repositor
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     import skfem_sheet  # noqa: F401
 
+from skfem_sheet import Sheet, solve  # noqa: E402  (after the path fix)
+from skfem_sheet.continuation import PATHS  # noqa: E402
+
 __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "local_orders",
            "nested_family",
            "run_isolated", "RunStore", "code_version", "available_backends", "solve_supports",
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
-           "open_store", "warn_if_busy", "interrupted"]
+           "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
+           "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
+           "run_journalled"]
 
 GB = 1024.0 ** 3
 
@@ -670,6 +677,152 @@ class RunStore:
         with open(tmp, "w") as f:
             json.dump(self.doc, f, indent=1, default=float)
         os.replace(tmp, self.path)
+
+
+# ---------------------------------------------------------------------------
+# Random samples of sheets solved into a JSON-lines journal (stress, snap_sample)
+# ---------------------------------------------------------------------------
+#: The keyword arguments of ``Sheet`` a sample point holds.
+SHEET_FIELDS = ("length", "tip_width", "curvature", "thickness", "modulus")
+
+
+def random_sheets(n, seed, thickness=0.03, modulus=735.0):
+    """``n`` seeded random sheets (dicts of ``Sheet`` arguments).
+
+    L/a uniform in [0.2, 3], b/a in [0, 1], a/R in [0, 6], drawn in that
+    order; then ``thickness`` and ``modulus``, each a value or a range
+    ``(lo, hi)`` drawn uniformly after them (so a sample's first three
+    columns depend on ``n`` and ``seed`` only).
+
+    Examples
+    --------
+    >>> a, b = random_sheets(3, 1), random_sheets(3, 1, thickness=(0.02, 0.045))
+    >>> [p["length"] for p in a] == [p["length"] for p in b], a[0]["thickness"]
+    (True, 0.03)
+    """
+    rng = np.random.default_rng(seed)
+    cols = [rng.uniform(0.2, 3.0, n), rng.uniform(0, 1, n), rng.uniform(0, 6, n)]
+    for v in (thickness, modulus):
+        cols.append(rng.uniform(v[0], v[1], n) if isinstance(v, tuple) else np.full(n, v))
+    return [dict(zip(SHEET_FIELDS, (float(x) for x in row))) for row in zip(*cols)]
+
+
+def both_paths(points):
+    """Every ``(point, load path)`` pair: each point along both load paths, in order."""
+    return [(p, path) for p in points for path in PATHS]
+
+
+def solve_key(p, path):
+    """The journal key of one solve: the sheet's parameters and the load path, as JSON."""
+    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
+                       p["modulus"], path])
+
+
+def solve_or_crash(p, path, hmax, fields):
+    """One solve of sample point ``p`` at ``min(hmax, L/2)`` as a JSON-ready record.
+
+    ``status`` is ``converged`` (full load reached), ``failed`` (a cleanly
+    reported failure, ``on_failure="return"``) or ``crash`` (an exception
+    escaped ``solve``: ``error``, ``traceback``, ``wall_time_s``); the fields
+    of a converged or failed solve are ``fields(result)`` (a dict).
+    """
+    t0 = time.perf_counter()
+    try:
+        r = solve(Sheet(**{k: p[k] for k in SHEET_FIELDS}), path=path,
+                  hmax=min(hmax, p["length"] / 2), on_failure="return")
+    except Exception as err:  # noqa: BLE001 - a crash is what these benchmarks count
+        return dict(status="crash", error=f"{type(err).__name__}: {err}",
+                    traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
+    return dict(status="converged" if r.converged else "failed", **fields(r))
+
+
+def read_jsonl(out):
+    """``{key: record}`` of a JSON-lines journal (a line cut by a kill is skipped)."""
+    done = {}
+    if os.path.exists(out):
+        with open(out) as f:
+            for line in f:
+                try:
+                    rec = json.loads(line)
+                except json.JSONDecodeError:  # a line cut by a kill: recompute it
+                    continue
+                done[rec["key"]] = rec
+    return done
+
+
+def add_shard_option(ap):
+    """The ``--shard k:n`` option (several processes sharing one journal)."""
+    ap.add_argument("--shard", default="0:1",
+                    help="k:n runs every n-th solve starting at k (several processes can "
+                         "share one --out file; a last run without --shard prints the table)")
+
+
+def parse_shard(text):
+    """``"k:n"`` as ``(k, n)``.
+
+    Examples
+    --------
+    >>> parse_shard("1:3")
+    (1, 3)
+    """
+    k, n = (int(x) for x in text.split(":"))
+    return k, n
+
+
+def run_journalled(todo, out, run, shard=(0, 1), reverse=False, progress=None, report=None):
+    """Solve the shard's ``(point, path)`` pairs of ``todo`` not yet in journal ``out``.
+
+    Parameters
+    ----------
+    todo : list of (dict, str)
+        Sample points and load paths, in order.
+    out : str
+        The JSON-lines journal: each finished solve is appended at once as
+        ``dict(key=solve_key(p, path), path=path, **p, **run(p, path))``,
+        flushed and fsync-ed; solves whose key is in it are skipped (resume),
+        and a last line cut by a kill is ended first (skipped when read).
+    run : callable
+        ``run(p, path) -> dict``, one solve's record.
+    shard : (int, int)
+        ``(k, n)``: the solves ``k, k + n, k + 2n, ...`` of ``todo``.
+    reverse : bool
+        Work through the shard from its end, re-reading the journal before
+        each solve (a second process on the same shard).
+    progress : str, optional
+        Label of a tqdm progress bar over the shard (none without it).
+    report : callable, optional
+        ``report(i, n, p, path, rec)`` after each new solve (``i`` 0-based in the shard).
+
+    Returns
+    -------
+    dict
+        ``{key: record}`` of the journal as this process has seen it.
+    """
+    k_shard, n_shard = shard
+    done = read_jsonl(out)
+    mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
+    if reverse:
+        mine = mine[::-1]
+    items = mine
+    if progress:
+        items = tqdm(mine, desc=progress, unit="solve")
+    with open(out, "a+b") as f:
+        if f.seek(0, os.SEEK_END):
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":  # a line cut by a kill: end it (not glued to the next)
+                f.write(b"\n")
+        for i, (p, path) in enumerate(items):
+            k = solve_key(p, path)
+            if k in done or (reverse and k in read_jsonl(out)):
+                continue
+            rec = dict(key=k, path=path, **p, **run(p, path))
+            f.write((json.dumps(rec, default=float) + "\n").encode())
+            f.flush()
+            os.fsync(f.fileno())
+            done[k] = rec
+            if report is not None:
+                report(i, len(mine), p, path, rec)
+    return done
 
 
 # ---------------------------------------------------------------------------

@@ -6,7 +6,9 @@ resumable table; prints L1*(1), L0*(1), the cusp (b/a)* per a/R and the
 rectangle's critical a/R.  ``--method grid``: the point-by-point fold map of
 :data:`skfem_sheet.figures.QUICK_GRID` (or the paper grid), L0*, L1*, the
 bistable flag per (b/a, a/R) and the bracketed (b/a)* (the reference).
-Re-running with the same table computes nothing again.
+Re-running with the same table computes nothing again.  The summary line's
+"sum of curve walls" (or "point walls") adds up each curve's (point's) own wall
+time: the work, not the elapsed time of a parallel run, and not CPU time.
 
     python benchmarks/bistability_map.py --table skfem_sheet_data/foldcurves-quick.csv
     python benchmarks/bistability_map.py --method grid --table skfem_sheet_data/foldmap-quick.csv
@@ -15,6 +17,7 @@ import argparse
 import math
 
 from skfem_sheet import figures
+from skfem_sheet.cli.fold_map import add_method_arguments, print_curve_table
 from skfem_sheet.figures.data import fold_curve_points
 from skfem_sheet.studies.foldmap import critical_curve, critical_tip_width, fold_curves, fold_map
 
@@ -25,19 +28,10 @@ def curves(args):
     print(f"fold curves, quality {args.quality}: hmax = {points[0]['hmax']:g}; {len(df)} "
           f"curves, {int(df.completed.sum())} completed, "
           f"{int((~df.bistable & df.converged).sum())} not bistable, "
-          f"{int((~df.converged).sum())} failed; {df.wall_time_s.sum() / 60:.0f} CPU-min")
+          f"{int((~df.converged).sum())} failed; sum of curve walls "
+          f"{df.wall_time_s.sum() / 60:.0f} min")
 
-    def f(x):
-        return "   none" if not math.isfinite(x) else f"{x:7.4f}"
-
-    print("  curve       a/R      L1*      L0*  cusp b/a  cusp a/R   cusp L  points  fact/pt"
-          "  wall s")
-    for _, r in df.iterrows():
-        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
-        print(f"  {which}  {r.curvature:5.2f}  {f(r.standout_length)}  {f(r.popup_length)}"
-              f"  {f(r.cusp_tip_width)}   {f(r.cusp_curvature)}  {f(r.cusp_length)}  "
-              f"{int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
-              + ("" if r.completed else f"  {r.message or r.error}"))
+    print_curve_table(df)
     print("critical curve (b/a)*, a/R, L*:")
     for b, c, L in critical_curve(df):
         print(f"  ({b:.4f}, {c:.3f}, {L:.4f})")
@@ -46,11 +40,8 @@ def curves(args):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quality", choices=figures.QUALITIES, default="quick")
-    ap.add_argument("--method", choices=("curves", "grid"), default="curves")
-    ap.add_argument("--table", default=None,
-                    help="default skfem_sheet_data/foldcurves-QUALITY.csv (curves) or "
-                         "skfem_sheet_data/foldmap-QUALITY.csv (grid)")
-    ap.add_argument("--workers", type=int, default=None)
+    add_method_arguments(ap, table_help="default skfem_sheet_data/foldcurves-QUALITY.csv "
+                                        "(curves) or skfem_sheet_data/foldmap-QUALITY.csv (grid)")
     args = ap.parse_args(argv)
     if args.table is None:
         name = "foldcurves" if args.method == "curves" else "foldmap"
@@ -63,7 +54,7 @@ def main(argv=None):
     print(f"fold map, quality {args.quality}: hmax = {p0['hmax']:g}, L/a in "
           f"[{p0['length_min']:g}, {p0['length_max']:g}], step {p0['step']:g}, folds to "
           f"+-{p0['tol']:g}; {len(df)} points, {int(df.converged.sum())} converged, "
-          f"{df.wall_time_s.sum() / 60:.0f} CPU-min")
+          f"sum of point walls {df.wall_time_s.sum() / 60:.0f} min")
 
     def f(x):
         return "   none" if not math.isfinite(x) else f"{x:7.3f}"

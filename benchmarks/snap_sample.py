@@ -23,64 +23,42 @@ without it prints the table).  Exit status 1 if a solve crashed or a
 converged result is not verified stable.
 """
 import argparse
-import json
 import os
 import sys
-import time
-import traceback
 
 import numpy as np
 
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
+    sys.path.insert(0, _HERE)
 
-from skfem_sheet import Sheet, solve
-from skfem_sheet.continuation import PATHS
+from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
+    add_shard_option,
+    both_paths,
+    parse_shard,
+    random_sheets,
+    run_journalled,
+    solve_key,
+    solve_or_crash,
+)
 
 
 def sample(n, seed):
     """``n`` seeded random sheets (dicts of Sheet arguments)."""
-    rng = np.random.default_rng(seed)
-    cols = (rng.uniform(0.2, 3.0, n), rng.uniform(0, 1, n), rng.uniform(0, 6, n),
-            rng.uniform(0.02, 0.045, n), rng.uniform(400, 2000, n))
-    return [dict(length=float(L), tip_width=float(b), curvature=float(k), thickness=float(t),
-                 modulus=float(E)) for L, b, k, t, E in zip(*cols)]
+    return random_sheets(n, seed, thickness=(0.02, 0.045), modulus=(400.0, 2000.0))
 
 
-def key(p, path):
-    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
-                       p["modulus"], path])
+def _fields(r):
+    return dict(deflection=r.deflection, message=r.message, stable=r.stable,
+                negative_eigenvalues=r.negative_eigenvalues, snaps=[list(s) for s in r.snaps],
+                branch=r.branch, newton_iterations=r.newton_iterations,
+                factorizations=r.factorizations, load_steps=r.load_steps,
+                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
 
 
 def run_point(p, path, hmax):
     """One solve as a JSON-ready record."""
-    t0 = time.perf_counter()
-    try:
-        r = solve(Sheet(**p), path=path, hmax=min(hmax, p["length"] / 2), on_failure="return")
-    except Exception as err:  # noqa: BLE001 - a crash is what this benchmark counts
-        return dict(status="crash", error=f"{type(err).__name__}: {err}",
-                    traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
-    return dict(status="converged" if r.converged else "failed", deflection=r.deflection,
-                message=r.message, stable=r.stable, negative_eigenvalues=r.negative_eigenvalues,
-                snaps=[list(s) for s in r.snaps], branch=r.branch,
-                newton_iterations=r.newton_iterations, factorizations=r.factorizations,
-                load_steps=r.load_steps, rejected_steps=r.rejected_steps,
-                wall_time_s=r.wall_time_s, dofs=r.dofs)
-
-
-def _read(out):
-    done = {}
-    if os.path.exists(out):
-        with open(out) as f:
-            for line in f:
-                try:
-                    rec = json.loads(line)
-                except json.JSONDecodeError:  # a line cut by a kill: recompute it
-                    continue
-                done[rec["key"]] = rec
-    return done
+    return solve_or_crash(p, path, hmax, _fields)
 
 
 def _stats(xs):
@@ -130,31 +108,22 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=17)
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="snap_sample.jsonl")
-    ap.add_argument("--shard", default="0:1",
-                    help="k:n runs every n-th solve starting at k (several processes can "
-                         "share one --out file; a last run without --shard prints the table)")
+    add_shard_option(ap)
     args = ap.parse_args(argv)
-    k_shard, n_shard = (int(x) for x in args.shard.split(":"))
-    done = _read(args.out)
-    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
-    mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
-    with open(args.out, "a") as f:
-        for i, (p, path) in enumerate(mine):
-            k = key(p, path)
-            if k in done:
-                continue
-            rec = dict(key=k, path=path, **p, **run_point(p, path, args.hmax))
-            f.write(json.dumps(rec, default=float) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-            done[k] = rec
-            print(f"[{i + 1}/{len(mine)}] {path} L={p['length']:.2f} a/R={p['curvature']:.2f}: "
-                  f"{rec['status']} {rec.get('newton_iterations')} it, stable={rec.get('stable')}, "
-                  f"{len(rec.get('snaps', []))} snap(s), {rec['wall_time_s']:.1f} s",
-                  file=sys.stderr, flush=True)
-    if n_shard > 1:
+    shard = parse_shard(args.shard)
+    todo = both_paths(sample(args.n, args.seed))
+
+    def report_one(i, n, p, path, rec):
+        print(f"[{i + 1}/{n}] {path} L={p['length']:.2f} a/R={p['curvature']:.2f}: "
+              f"{rec['status']} {rec.get('newton_iterations')} it, stable={rec.get('stable')}, "
+              f"{len(rec.get('snaps', []))} snap(s), {rec['wall_time_s']:.1f} s",
+              file=sys.stderr, flush=True)
+
+    done = run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax),
+                          shard=shard, report=report_one)
+    if shard[1] > 1:
         return 0
-    return report([done[key(p, path)] for p, path in todo])
+    return report([done[solve_key(p, path)] for p, path in todo])
 
 
 if __name__ == "__main__":

@@ -20,23 +20,27 @@ run resumes where it stopped (finished points are skipped).  A table and a
 summary line are printed at the end.
 """
 import argparse
-import json
 import os
 import sys
-import time
-import traceback
 
-import numpy as np
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
+    sys.path.insert(0, _HERE)
 
-from skfem_sheet import Sheet, solve
-from skfem_sheet.continuation import PATHS
+from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
+    add_shard_option,
+    both_paths,
+    parse_shard,
+    random_sheets,
+    read_jsonl,
+    run_journalled,
+    solve_key,
+    solve_or_crash,
+)
 
 
 def sample(n, seed):
-    rng = np.random.default_rng(seed)
-    pts = [dict(length=float(L), tip_width=float(b), curvature=float(k), thickness=0.03,
-                modulus=735.0, kind="random")
-           for L, b, k in zip(rng.uniform(0.2, 3.0, n), rng.uniform(0, 1, n), rng.uniform(0, 6, n))]
+    pts = [dict(p, kind="random") for p in random_sheets(n, seed)]
     corners = [
         dict(length=1.3, tip_width=0.0, curvature=6.0),
         dict(length=1.3, tip_width=1.0, curvature=6.0),
@@ -56,42 +60,16 @@ def sample(n, seed):
     return pts
 
 
-def key(p, path):
-    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
-                       p["modulus"], path])
+def _fields(r):
+    return dict(deflection=r.deflection, message=r.message, kappa_reached=r.kappa,
+                gravity_reached=r.gravity, newton_iterations=r.newton_iterations,
+                load_steps=r.load_steps, rejected_steps=r.rejected_steps,
+                wall_time_s=r.wall_time_s, dofs=r.dofs, stable=r.stable,
+                snaps=[list(x) for x in r.snaps])
 
 
 def run_point(p, path, hmax):
-    sheet = Sheet(length=p["length"], tip_width=p["tip_width"], curvature=p["curvature"],
-                  thickness=p["thickness"], modulus=p["modulus"])
-    t0 = time.perf_counter()
-    try:
-        r = solve(sheet, path=path, hmax=min(hmax, sheet.length / 2), on_failure="return")
-    except Exception as err:  # noqa: BLE001 - a crash is what this benchmark counts
-        return dict(status="crash", error=f"{type(err).__name__}: {err}",
-                    traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
-    return dict(status="converged" if r.converged else "failed", deflection=r.deflection,
-                message=r.message, kappa_reached=r.kappa, gravity_reached=r.gravity,
-                newton_iterations=r.newton_iterations, load_steps=r.load_steps,
-                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs,
-                stable=r.stable, snaps=[list(x) for x in r.snaps])
-
-
-def _read(out):
-    done = {}
-    if os.path.exists(out):
-        with open(out) as f:
-            for line in f:
-                try:
-                    rec = json.loads(line)
-                except json.JSONDecodeError:  # a line cut by a kill: recompute it
-                    continue
-                done[rec["key"]] = rec
-    return done
-
-
-def _finished(out):
-    return set(_read(out))
+    return solve_or_crash(p, path, hmax, _fields)
 
 
 def main(argv=None):
@@ -100,34 +78,18 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="stress.jsonl")
-    ap.add_argument("--shard", default="0:1",
-                    help="k:n runs every n-th solve starting at k (several processes can "
-                         "share one --out file; a last run without --shard prints the table)")
+    add_shard_option(ap)
     ap.add_argument("--reverse", action="store_true",
                     help="work through the shard from its end (a second worker on a shard)")
     args = ap.parse_args(argv)
-    k_shard, n_shard = (int(x) for x in args.shard.split(":"))
-    from tqdm.auto import tqdm
-
-    done = _read(args.out)
-    todo = [(p, path) for p in sample(args.n, args.seed) for path in PATHS]
-    mine = [t for i, t in enumerate(todo) if i % n_shard == k_shard]
-    if args.reverse:
-        mine = mine[::-1]
-    with open(args.out, "a") as f:
-        for p, path in tqdm(mine, desc="stress", unit="solve"):
-            k = key(p, path)
-            if k in done or (args.reverse and k in _finished(args.out)):
-                continue
-            rec = dict(key=k, path=path, **p, **run_point(p, path, args.hmax))
-            f.write(json.dumps(rec, default=float) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-            done[k] = rec
-    if n_shard > 1:
+    shard = parse_shard(args.shard)
+    todo = both_paths(sample(args.n, args.seed))
+    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax), shard=shard,
+                   reverse=args.reverse, progress="stress")
+    if shard[1] > 1:
         return 0
-    done = _read(args.out)  # with the solves of other workers on the same file (--reverse)
-    recs = [done[key(p, path)] for p, path in todo]
+    done = read_jsonl(args.out)  # with the solves of other workers on the same file
+    recs = [done[solve_key(p, path)] for p, path in todo]
     print(f"{'kind':7s} {'L/a':>5s} {'b/a':>5s} {'a/R':>5s} {'h/a':>5s} {'E':>6s} {'path':16s} "
           f"{'status':9s} {'d/a':>8s} {'newton':>6s} {'s':>6s}  reason")
     for r in recs:

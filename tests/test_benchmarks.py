@@ -177,6 +177,52 @@ def test_doctests_of_helpers():
 
 
 # ---------------------------------------------------------------------------
+# The sampled, journalled solves of benchmarks/stress.py and snap_sample.py
+# ---------------------------------------------------------------------------
+def test_random_sheets_in_range_and_thickness_modulus_drawn_after_the_shape():
+    fixed = bench.random_sheets(40, 5)
+    drawn = bench.random_sheets(40, 5, thickness=(0.02, 0.045), modulus=(400.0, 2000.0))
+    assert fixed == bench.random_sheets(40, 5) and len(fixed) == 40
+    for name, lo, hi in (("length", 0.2, 3.0), ("tip_width", 0.0, 1.0), ("curvature", 0.0, 6.0)):
+        assert [p[name] for p in fixed] == [p[name] for p in drawn]
+        xs = [p[name] for p in fixed]
+        assert lo <= min(xs) and max(xs) <= hi and max(xs) - min(xs) > 0.5 * (hi - lo)
+    assert {p["thickness"] for p in fixed} == {0.03} and {p["modulus"] for p in fixed} == {735.0}
+    assert all(0.02 <= p["thickness"] <= 0.045 and 400 <= p["modulus"] <= 2000 for p in drawn)
+
+
+def test_run_journalled_shards_resume_and_skip_a_cut_line(tmp_path):
+    out = str(tmp_path / "j.jsonl")
+    todo = [(p, path) for p in bench.random_sheets(3, 2) for path in ("a", "b")]
+    calls = []
+
+    def run(p, path):
+        calls.append(bench.solve_key(p, path))
+        return {"status": "converged", "n": len(calls)}
+
+    seen = []
+    bench.run_journalled(todo, out, run, shard=(1, 2), report=lambda *a: seen.append(a[:2]))
+    assert calls == [bench.solve_key(*t) for t in todo[1::2]] and seen == [(0, 3), (1, 3), (2, 3)]
+    with open(out, "a") as f:
+        f.write('{"key": "cut by a ki')  # a kill in the middle of a line
+    done = bench.run_journalled(todo, out, run, shard=(0, 2), reverse=True)
+    assert calls[3:] == [bench.solve_key(*t) for t in todo[0::2]][::-1]
+    assert list(done) == [bench.solve_key(*t) for t in todo[1::2] + todo[0::2][::-1]]
+    rec = done[bench.solve_key(*todo[0])]
+    assert rec["path"] == "a" and rec["length"] == todo[0][0]["length"] and rec["n"] == 6
+    n = len(calls)
+    assert bench.run_journalled(todo, out, run) == bench.read_jsonl(out) and len(calls) == n
+    assert len(bench.read_jsonl(out)) == 6
+
+
+def test_solve_or_crash_records_an_exception_as_a_crash():
+    bad = dict(length=1.0, tip_width=1.0, curvature=0.0, thickness=-1.0, modulus=735.0)
+    rec = bench.solve_or_crash(bad, "curvature-first", 0.2, fields=lambda r: {})
+    assert rec["status"] == "crash" and "thickness" in rec["error"]
+    assert "Traceback" in rec["traceback"] and rec["wall_time_s"] >= 0
+
+
+# ---------------------------------------------------------------------------
 # Nested refinement study (benchmarks/convergence.py --nested)
 # ---------------------------------------------------------------------------
 NESTED = [0.16, 0.08, 0.04, 0.02]   # base hmax 0.16 and three halvings

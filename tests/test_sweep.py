@@ -164,6 +164,29 @@ def test_failures_are_rows_and_the_sweep_carries_on(fake, tmp_path):
     assert set(df.version) == {__version__}
 
 
+def test_the_shared_chunk_task_and_failed_record_keep_order_and_reason(fake):
+    """runner.EachPoint and runner.failed_record, the two pieces every study shares."""
+    import pickle
+
+    from skfem_sheet.studies import foldmap
+
+    pts = grid(length=[0.5, 0.9, 0.6])
+    recs = pickle.loads(pickle.dumps(sw._JOB.task))(pts)  # as a spawned worker gets it
+    assert [r["key"] for r in recs] == [point_key(p) for p in pts]  # one record each, in order
+    assert [r["converged"] for r in recs] == [True, False, True]  # 0.9 raises: a failed record
+    assert recs[1]["message"] == "boom in the solver" and recs[1]["error"] == "RuntimeError"
+    died = sw._JOB.failed(pts[2], "the worker process died", "WorkerDied")
+    assert died["key"] == point_key(pts[2]) and died["length"] == 0.6
+    assert died["message"] == "the worker process died" and died["error"] == "WorkerDied"
+    assert not died["converged"] and math.isnan(died["deflection"]) and died["finished_at"]
+    mp = foldmap.map_points([0.5], [1.0])[0]
+    lost = foldmap._MAP_JOB.failed(mp, "the Dask task failed: KilledWorker", "KilledWorker")
+    assert lost["key"] == foldmap._key(mp) and lost["error"] == "KilledWorker"
+    assert not lost["converged"] and math.isnan(lost["popup_length"])
+    cp = foldmap.curve_points([2.5])[0]
+    assert foldmap._CURVE_JOB.failed(cp, "gone", "WorkerDied")["key"] == foldmap._curve_key(cp)
+
+
 def test_resume_computes_only_the_missing_points(fake, tmp_path):
     table = tmp_path / "t.csv"
     first = grid(length=[0.3, 0.4], curvature=[0.0, 2.5])

@@ -23,7 +23,22 @@ from ..studies.foldmap import (
 from .ranges import parse_range, parse_values
 from .solve import solver_help
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "add_method_arguments", "print_curve_table", "METHODS"]
+
+#: The ways of computing the map (``--method``): fold curves (the default) or a grid.
+METHODS = ("curves", "grid")
+
+
+def add_method_arguments(p, table_help="results .csv or .parquet (resumable)") -> None:
+    """Add ``--method``, ``--table`` and ``--workers``: how and where the map is computed.
+
+    The options of the ``fold-map`` command that
+    ``benchmarks/bistability_map.py`` takes too (with its own ``table_help``).
+    """
+    p.add_argument("--method", choices=METHODS, default=METHODS[0],
+                   help="curves: one fold curve per a/R (default); grid: point by point")
+    p.add_argument("--table", default=None, help=table_help)
+    p.add_argument("--workers", type=int, default=None)
 
 
 def register(subparsers) -> None:
@@ -35,8 +50,7 @@ def register(subparsers) -> None:
                     "factor (b/a)* of each curvature, in parallel, into a resumable table: "
                     "from one traced fold curve per curvature (--method curves, default) or "
                     "for every (tip width, curvature) of a grid (--method grid).")
-    p.add_argument("--method", choices=("curves", "grid"), default="curves",
-                   help="curves: one fold curve per a/R (default); grid: point by point")
+    add_method_arguments(p)
     p.add_argument("--rectangle", type=float, default=None, metavar="A_R",
                    help="curves: also trace the curve in (L, a/R) at b/a = 1 from this a/R "
                         "(its cusp: where the rectangle becomes bistable)")
@@ -49,12 +63,32 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
     p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
     p.add_argument("--solver", default="auto", help=solver_help())
-    p.add_argument("--table", default=None, help="results .csv or .parquet (resumable)")
-    p.add_argument("--workers", type=int, default=None)
     p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
     p.add_argument("--retry-failed", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
+
+
+def _fmt4(x):
+    return "   none" if not np.isfinite(x) else f"{x:7.4f}"
+
+
+def print_curve_table(df) -> None:
+    """Print a fold-curve table (:func:`~skfem_sheet.studies.foldmap.fold_curves`), a line a curve.
+
+    a/R, the curve's plane, L1*, L0*, the cusp, the points, factorisations
+    per point, wall time, and the message of a curve not completed (also
+    ``benchmarks/bistability_map.py``'s table).
+    """
+    print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
+          "  wall s")
+    for _, r in df.iterrows():
+        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
+        print(f"{r.curvature:5.2f}  {which}  {_fmt4(r.standout_length)}  "
+              f"{_fmt4(r.popup_length)}  {_fmt4(r.cusp_tip_width)}   "
+              f"{_fmt4(r.cusp_curvature)}  {_fmt4(r.cusp_length)}  {int(r.n_points):6d}  "
+              f"{r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
+              + ("" if r.completed else f"  {r.message}"))
 
 
 def _run_curves(args, tip_widths) -> int:
@@ -64,18 +98,8 @@ def _run_curves(args, tip_widths) -> int:
     df = fold_curves(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
                      progress=not args.quiet, retry_failed=args.retry_failed)
 
-    def fmt(x):
-        return "   none" if not np.isfinite(x) else f"{x:7.4f}"
-
     print(f"hmax = {args.hmax:g}, fold curves")
-    print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
-          "  wall s")
-    for _, r in df.iterrows():
-        which = "(L, b/a)" if r.second == "tip_width" else "(L, a/R)"
-        print(f"{r.curvature:5.2f}  {which}  {fmt(r.standout_length)}  {fmt(r.popup_length)}"
-              f"  {fmt(r.cusp_tip_width)}   {fmt(r.cusp_curvature)}  {fmt(r.cusp_length)}"
-              f"  {int(r.n_points):6d}  {r.factorizations_per_point:7.1f}  {r.wall_time_s:6.0f}"
-              + ("" if r.completed else f"  {r.message}"))
+    print_curve_table(df)
     print("  a/R    b/a   L0* pop-up  L1* standout  (interpolated on the fold curves)")
     for _, r in df[df["second"] == "tip_width"].iterrows():
         halves = curve_halves(r)
@@ -84,8 +108,8 @@ def _run_curves(args, tip_widths) -> int:
         (bs, Ls), (bp, Lp) = halves["standout"], halves["popup"]
         for b in tip_widths:
             if halves["cusp"][0] < b <= min(bs.max(), bp.max()) + 1e-12:
-                print(f"{r.curvature:5.2f}  {b:5.2f}      {fmt(np.interp(b, bp, Lp))}       "
-                      f"{fmt(np.interp(b, bs, Ls))}")
+                print(f"{r.curvature:5.2f}  {b:5.2f}      {_fmt4(np.interp(b, bp, Lp))}       "
+                      f"{_fmt4(np.interp(b, bs, Ls))}")
     crit = critical_curve(df)
     if crit:
         print("critical curve (b/a)*, a/R, L*: "

@@ -15,15 +15,15 @@ from .data import fold_map_table, map_grid_points, select_rows
 from .style import (
     COLUMN_WIDTH,
     CURVATURE_COLOURS,
-    STYLE,
     colour_handles,
     draw_row,
     fmt,
     footnote,
     hmax_of,
-    new_figure,
     panel_label,
     style_handles,
+    styled_figure,
+    tally,
     top_legends,
 )
 
@@ -71,27 +71,21 @@ def draw_fig2(df, quality: str = "paper"):
     >>> fig.axes[1].get_xlabel(), fig.axes[0].get_ylabel()
     ('$L/a$', '$d/a$')
     """
-    import matplotlib  # deferred: import cost (see figures.style)
-
-    with matplotlib.rc_context(STYLE):
-        fig = new_figure(COLUMN_WIDTH, 4.6)
+    with styled_figure(COLUMN_WIDTH, 4.6) as fig:
         axes = fig.subplots(2, 1, sharex=True)
-        n_failed, any_bistable, key = 0, False, {}
+        drawn = []
         for ax, tip, name, lab in zip(axes, (1.0, 0.0), ("rectangles", "triangles"),
                                       ("(a)", "(b)")):
             sub = select_rows(df, tip_width=tip)
             for k in sorted(set(sub["curvature"].astype(float))):
                 colour = CURVATURE_COLOURS.get(k, None)
                 for _, row in select_rows(sub, curvature=k).iterrows():
-                    res = draw_row(ax, row, colour)
-                    n_failed += not res["drawn"]
-                    any_bistable |= res["bistable"]
-                    if res["drawn"]:
-                        key[f"$a/R={fmt(k)}$"] = res["colour"]
+                    drawn.append((f"$a/R={fmt(k)}$", draw_row(ax, row, colour)))
             ax.axhline(0.0, color="0.75", linewidth=0.5, zorder=0)
             ax.set_ylabel("$d/a$")
             panel_label(ax, f"{lab} {name} ($b/a={fmt(tip)}$)")
         # the a/R colours in (a); modes, jumps, failures on top
+        n_failed, any_bistable, key = tally(drawn)
         if key:
             axes[0].legend(handles=colour_handles(key), loc="upper left",
                            bbox_to_anchor=(0.0, 0.9), frameon=False)

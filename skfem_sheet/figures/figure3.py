@@ -21,7 +21,7 @@ from ..plot import shaded, top_surface
 from ..solve import solve
 from .cache import cached, data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .style import FULL_WIDTH, STYLE, fmt, footnote, new_figure
+from .style import FULL_WIDTH, fmt, footnote, styled_figure
 
 __all__ = ["fig3_sheets", "fig3_data", "draw_fig3", "fig3"]
 
@@ -129,11 +129,10 @@ def draw_fig3(items, quality: str = "paper"):
     from matplotlib.ticker import MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    with matplotlib.rc_context(STYLE):
-        n = len(items)
-        ncol = min(3, n)
-        nrow = -(-n // ncol)
-        fig = new_figure(FULL_WIDTH, 2.45 * nrow + 0.3)
+    n = len(items)
+    ncol = min(3, n)
+    nrow = -(-n // ncol)
+    with styled_figure(FULL_WIDTH, 2.45 * nrow + 0.3) as fig:
         # psi/mu = (I_C - 3)/2 dips slightly below 0 where the discrete volume
         # change is not zero (coarse meshes): those show in the lowest colour.
         allpsi = np.concatenate([d["psi"] for *_, d in items])

@@ -14,15 +14,15 @@ from .common import DEFAULT_DATA_DIR
 from .data import fold_map_table, map_grid_points, select_rows
 from .style import (
     COLUMN_WIDTH,
-    STYLE,
     colour_handles,
     draw_row,
     fmt,
     footnote,
     hmax_of,
-    new_figure,
     panel_label,
     style_handles,
+    styled_figure,
+    tally,
     top_legends,
 )
 
@@ -76,20 +76,15 @@ def draw_fig4(df, quality: str = "paper"):
     def colour(b):
         return cmap(0.85 * b)
 
-    with matplotlib.rc_context(STYLE):
-        fig = new_figure(COLUMN_WIDTH, 5.6)
+    with styled_figure(COLUMN_WIDTH, 5.6) as fig:
         main = fig.subplots(2, 1, sharex=True)
-        n_failed, any_bistable, key = 0, False, {}
+        drawn = []
         for ax, k, lab in zip(main, (0.0, 2.5), ("(a)", "(b)")):
             sub = select_rows(df, curvature=k)
             inset = ax.inset_axes([0.11, 0.55, 0.33, 0.33])
             for b in tips:
                 for _, row in select_rows(sub, tip_width=b).iterrows():
-                    res = draw_row(ax, row, colour(b), gap=0.1)
-                    n_failed += not res["drawn"]
-                    any_bistable |= res["bistable"]
-                    if res["drawn"]:
-                        key[f"$b/a={fmt(b)}$"] = res["colour"]
+                    drawn.append((f"$b/a={fmt(b)}$", draw_row(ax, row, colour(b), gap=0.1)))
                     with matplotlib.rc_context({"lines.linewidth": 0.7}):
                         draw_row(inset, row, colour(b), x=lambda L, b=b: 0.5 * (1 + b) * L,
                                   markers=False, jumps=False)
@@ -102,6 +97,7 @@ def draw_fig4(df, quality: str = "paper"):
             panel_label(ax, f"{lab} $a/R={fmt(k)}$")
         # above the panels, where no curve can hide under them: the shapes (colours),
         # then the modes, the jumps and failures (both panels)
+        n_failed, any_bistable, key = tally(drawn)
         top = top_legends(fig, [(colour_handles(key), 3),
                                  (style_handles(jumps=any_bistable, n_failed=n_failed), 2)])
         main[-1].set_xlabel("$L/a$")

@@ -26,14 +26,14 @@ from .data import as_bool, fold_map_table, select_rows
 from .figure2 import fig2_points
 from .style import (
     COLUMN_WIDTH,
-    STYLE,
     draw_row,
     fmt,
     footnote,
     hmax_of,
-    new_figure,
     panel_label,
     style_handles,
+    styled_figure,
+    tally,
     top_legends,
 )
 
@@ -152,13 +152,12 @@ def draw_fig5(fe, rom, quality: str = "paper"):
     from matplotlib.lines import Line2D
 
     fe_colour, rom_colour = "#1f4e9c", "#e07b00"
-    with matplotlib.rc_context(STYLE):
-        fig = new_figure(COLUMN_WIDTH, 3.9)
+    with styled_figure(COLUMN_WIDTH, 3.9) as fig:
         axes = fig.subplots(2, 2, sharex=True, sharey=True)
         panels = [((0, 0), 1.0, 1.0, "(a)"), ((0, 1), 0.0, 1.0, "(b)"),
                   ((1, 0), 1.0, 2.5, "(c)"), ((1, 1), 0.0, 2.5, "(d)")]
-        n_failed = n_rom_failed = 0
-        any_bistable = False
+        n_rom_failed = 0
+        drawn = []
         for (i, j), b, k, lab in panels:
             ax = axes[i, j]
             ax.axhline(0.0, color="0.75", linewidth=0.5, zorder=0)
@@ -169,15 +168,14 @@ def draw_fig5(fe, rom, quality: str = "paper"):
                                              ls, None)
             for _, row in select_rows(fe, curvature=k, tip_width=b).iterrows():
                 with matplotlib.rc_context({"lines.markersize": 2.5}):
-                    res = draw_row(ax, row, fe_colour, gap=0.1)
-                n_failed += not res["drawn"]
-                any_bistable |= res["bistable"]
+                    drawn.append((None, draw_row(ax, row, fe_colour, gap=0.1)))
             shape = "rectangle" if b == 1.0 else "triangle"
             panel_label(ax, f"{lab} {shape}\n$a/R={fmt(k)}$")
             if i == 1:
                 ax.set_xlabel("$L/a$")
             if j == 0:
                 ax.set_ylabel("$d/a$")
+        n_failed, any_bistable, _ = tally(drawn)
         handles = style_handles(colour=fe_colour, jumps=any_bistable, n_failed=n_failed)
         for h in handles[:2]:
             h.set_label("FE, " + h.get_label())

@@ -42,12 +42,11 @@ from .data import (
 from .style import (
     COLUMN_WIDTH,
     FOLD_ACCURACY,
-    STYLE,
     fmt,
     footnote,
     halo,
     hmax_of,
-    new_figure,
+    styled_figure,
 )
 
 __all__ = ["fig6_points", "fig6_ribbon", "draw_fig6", "fig6"]
@@ -207,8 +206,7 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None, curves=None):
     vmin, vmax = min(0.0, float(np.nanmin(vals))), float(np.nanmax(vals))
     cmap = matplotlib.colormaps["viridis"]
     n_failed = 0
-    with matplotlib.rc_context(STYLE):
-        fig = new_figure(COLUMN_WIDTH, 5.6)
+    with styled_figure(COLUMN_WIDTH, 5.6) as fig:
         axes = fig.subplots(2, 1, sharex=True)
         im = None
         for ax, c, lab in zip(axes, _FIG6_CURVATURES, ("(a)", "(b)")):

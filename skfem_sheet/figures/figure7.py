@@ -29,7 +29,7 @@ from .data import (
     select_rows,
     usable,
 )
-from .style import COLUMN_WIDTH, FOLD_ACCURACY, STYLE, fmt, footnote, hmax_of, new_figure
+from .style import COLUMN_WIDTH, FOLD_ACCURACY, fmt, footnote, hmax_of, styled_figure
 
 __all__ = ["fig7_points", "bistable_region", "region_mesh", "draw_fig7", "fig7"]
 
@@ -189,8 +189,7 @@ def draw_fig7(df, quality: str = "paper", region=None):
         n_failed = int(sum(bool(r["error"]) or not bool(r["converged"]) for _, r in df.iterrows()))
     else:
         n_failed = int(sum(not usable(r) for _, r in df.iterrows()))
-    with matplotlib.rc_context(STYLE):
-        fig = new_figure(COLUMN_WIDTH, 5.9)
+    with styled_figure(COLUMN_WIDTH, 5.9) as fig:
         ax = fig.add_axes([0.02, 0.38, 0.93, 0.56], projection="3d")
         # seen from above the upper surface is in front: draw in a fixed order
         ax.computed_zorder = False

@@ -10,13 +10,15 @@ chosen the backend).
 """
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from .data import row_branches
 
 __all__ = ["COLUMN_WIDTH", "FULL_WIDTH", "DPI", "STYLE", "CURVATURE_COLOURS", "MODE_STYLE",
-           "MODE_LABEL", "new_figure", "footnote", "panel_label", "fmt", "thin", "segment",
-           "jump", "draw_row", "style_handles", "top_legends", "colour_handles", "hmax_of",
+           "MODE_LABEL", "new_figure", "styled_figure", "footnote", "panel_label", "fmt", "thin", "segment",
+           "jump", "draw_row", "tally", "style_handles", "top_legends", "colour_handles", "hmax_of",
            "halo"]
 
 #: Column width of a two-column journal (inches), full width, output resolution.
@@ -44,6 +46,19 @@ def new_figure(width, height):
     import matplotlib.pyplot as plt  # deferred: import cost (and make_figure picks the backend)
 
     return plt.figure(figsize=(width, height))
+
+
+@contextlib.contextmanager
+def styled_figure(width, height):
+    """``with styled_figure(width, height) as fig:`` a new figure drawn in :data:`STYLE`.
+
+    The settings hold inside the block (where the figure is drawn), as in
+    ``with matplotlib.rc_context(STYLE): fig = new_figure(width, height)``.
+    """
+    import matplotlib  # deferred: import cost (see the module docstring)
+
+    with matplotlib.rc_context(STYLE):
+        yield new_figure(width, height)
 
 
 #: How well a mesh resolves the fold lengths (benchmarks/fold_convergence.py,
@@ -162,6 +177,31 @@ def draw_row(ax, row, colour, *, x=None, markers=True, jumps=True, gap=0.06, lab
             Lb, db = np.r_[Lc[below][-1], Lb], np.r_[dc[below][-1], db]
         seg(Lb, db, "gravity_dominated", None if first is not None else label)
     return {"drawn": True, "bistable": False, "lines": lines, "colour": colour}
+
+
+def tally(drawn):
+    """What the rows drawn by :func:`draw_row` add up to, for the legends.
+
+    ``drawn`` is a list of ``(label, result)``: a row's legend label (or None)
+    and what :func:`draw_row` returned for it, in drawing order.  Returns
+    ``(n_failed, any_bistable, key)``: the rows not drawn, whether any row
+    was bistable, and ``{label: colour}`` of the labelled rows drawn (in order
+    of first appearance, the last colour of a label).
+
+    Examples
+    --------
+    >>> tally([("a", {"drawn": True, "bistable": False, "colour": "r"}),
+    ...        ("b", {"drawn": False, "bistable": False, "colour": "g"}),
+    ...        ("a", {"drawn": True, "bistable": True, "colour": "k"})])
+    (1, True, {'a': 'k'})
+    """
+    n_failed = sum(not res["drawn"] for _, res in drawn)
+    any_bistable = any(res["bistable"] for _, res in drawn)
+    key = {}
+    for label, res in drawn:
+        if label is not None and res["drawn"]:
+            key[label] = res["colour"]
+    return n_failed, any_bistable, key
 
 
 def style_handles(colour="0.3", jumps=True, n_failed=0):

@@ -35,10 +35,10 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
-import time
 
 import numpy as np
 
@@ -49,17 +49,18 @@ from ..params import ParameterError
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
+    EachPoint,
     Job,
     as_values,
-    check_table,
+    check_run,
+    computed_record,
     execute,
-    finish_record,
+    failed_record,
     hash_key,
     key_value,
     normalize_params,
-    record_failure,
+    study_points,
     typed_frame,
-    utc_now,
 )
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
@@ -163,54 +164,42 @@ def _nan(x):
 
 def _run_map_point(point) -> dict:
     """Fold lengths of one normalised map point; every exception becomes a failed record."""
-    key = _key(point)
-    rec = _empty_record(point, key)
-    t0 = time.perf_counter()
-    try:
-        r = fold_lengths(point["tip_width"], point["curvature"],
-                         lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
-                         layers=point["layers"], solver=point["solver"], step=point["step"],
-                         tol=point["tol"], thickness=point["thickness"],
-                         modulus=point["modulus"])
-        up, down = r.increasing, r.decreasing
-        notes = []
-        if up.start_snapped:
-            notes.append(f"the curvature-dominated branch does not exist at L/a = "
-                         f"{point['length_min']:g} (lower length_min)")
-        if down.start_snapped:
-            notes.append(f"the gravity-dominated branch does not exist at L/a = "
-                         f"{point['length_max']:g} (raise length_max)")
-        width = (r.standout_length - r.popup_length
-                 if r.popup_length is not None and r.standout_length is not None else None)
-        rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
-                   bistable=bool(r.bistable), bistable_width=_nan(width),
-                   converged=not notes, message="; ".join(notes),
-                   curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
-                   curvature_dominated_snapped=bool(up.start_snapped),
-                   gravity_dominated_snapped=bool(down.start_snapped),
-                   curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
-                   newton_iterations=int(up.newton_iterations
-                                         + (down.newton_iterations if down is not up else 0)),
-                   wall_time_s=float(r.wall_time_s))
-        rec["transition_length"] = _nan(transition_length(rec))
-    except Exception as err:  # noqa: BLE001 - one bad point must not stop the map
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, _key, _empty_record, _fill_map_record)
 
 
-def _run_map_chunk(points) -> list:
-    return [_run_map_point(p) for p in points]
-
-
-def _failed_map_point(point, message, error):
-    rec = _empty_record(point, _key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
+def _fill_map_record(point, rec) -> None:
+    """Put the fold lengths and branch curves of a map point into its record."""
+    r = fold_lengths(point["tip_width"], point["curvature"],
+                     lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
+                     layers=point["layers"], solver=point["solver"], step=point["step"],
+                     tol=point["tol"], thickness=point["thickness"],
+                     modulus=point["modulus"])
+    up, down = r.increasing, r.decreasing
+    notes = []
+    if up.start_snapped:
+        notes.append(f"the curvature-dominated branch does not exist at L/a = "
+                     f"{point['length_min']:g} (lower length_min)")
+    if down.start_snapped:
+        notes.append(f"the gravity-dominated branch does not exist at L/a = "
+                     f"{point['length_max']:g} (raise length_max)")
+    width = (r.standout_length - r.popup_length
+             if r.popup_length is not None and r.standout_length is not None else None)
+    rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
+               bistable=bool(r.bistable), bistable_width=_nan(width),
+               converged=not notes, message="; ".join(notes),
+               curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
+               curvature_dominated_snapped=bool(up.start_snapped),
+               gravity_dominated_snapped=bool(down.start_snapped),
+               curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
+               newton_iterations=int(up.newton_iterations
+                                     + (down.newton_iterations if down is not up else 0)),
+               wall_time_s=float(r.wall_time_s))
+    rec["transition_length"] = _nan(transition_length(rec))
 
 
 def _with_flags(rec):
     """A record with the ``*_snapped`` flags: journal lines written before they
-    were columns say it in ``message`` (the sentences :func:`_run_map_point`
+    were columns say it in ``message`` (the sentences :func:`_fill_map_record`
     writes); a failed point (``error``) leaves them unknown."""
     if all(k in rec for k in _SNAPPED):
         return rec
@@ -226,8 +215,9 @@ def _frame(records):
                        bools_or_na=_SNAPPED, bools=("bistable", "converged"), strings=_STR)
 
 
-_MAP_JOB = Job(task=_run_map_chunk, failed=_failed_map_point, frame=_frame, key_of=_key,
-               required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
+_MAP_JOB = Job(task=EachPoint(__name__, "_run_map_point"),
+               failed=functools.partial(failed_record, _empty_record, _key), frame=_frame,
+               key_of=_key, required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
 
 
 def _chunks(points, n_workers):
@@ -269,15 +259,8 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     >>> float(df.popup_length[0]) != float(df.popup_length[0])  # NaN: no fold in range
     True
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use map_points(...)), got one dict")
-    points = [_normalize(p) for p in points]
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = check_table(table) if table is not None else None
+    points = study_points(points, _normalize, "map_points")
+    path = check_run(table, workers, scheduler)
     keys = [_key(p) for p in points]
     done, stats = execute(points, keys, _MAP_JOB, table=path, workers=workers,
                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,
@@ -502,38 +485,36 @@ def _empty_curve_record(point, key):
 
 def _run_curve_point(point) -> dict:
     """One fold curve; every exception becomes a failed record."""
-    key = _curve_key(point)
-    rec = _empty_curve_record(point, key)
-    t0 = time.perf_counter()
-    try:
-        fine = point["hmax"] < COARSE_HMAX[0]
-        common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
-                      modulus=point["modulus"], solver=point["solver"],
-                      check_inertia=5 if fine else 0,
-                      coarse_hmax=COARSE_HMAX if fine else None, fine_points=FINE_POINTS)
-        if point["second"] == "tip_width":
-            c = trace_fold_curve(point["curvature"], **common)
-        else:
-            c = trace_curvature_fold_curve(point["tip_width"], point["curvature"], **common)
-        j = c.second
-        cusp = c.cusp or {}
-        rec.update(standout_length=_nan(c.standout_length), popup_length=_nan(c.popup_length),
-                   cusp_tip_width=_nan(cusp.get("tip_width", point["tip_width"]
-                                                if cusp and j == "curvature" else None)),
-                   cusp_curvature=_nan(cusp.get("curvature", point["curvature"]
-                                                if cusp and j == "tip_width" else None)),
-                   cusp_length=_nan(cusp.get("length")), cusp_located=c.cusp_located,
-                   bistable=bool(c.bistable), completed=bool(c.completed),
-                   converged=bool(c.completed or not c.bistable), n_points=len(c.points),
-                   factorizations=int(c.factorizations),
-                   factorizations_per_point=float(c.factorizations_per_point),
-                   remeshes=int(c.remeshes), message=_curve_message(c),
-                   points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
-                                      for p in c.points], compact=True),
-                   wall_time_s=float(c.wall_time_s))
-    except Exception as err:  # noqa: BLE001 - one bad curve must not stop the map
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, _curve_key, _empty_curve_record, _fill_curve_record)
+
+
+def _fill_curve_record(point, rec) -> None:
+    """Trace the fold curve of a point and put it into its record."""
+    fine = point["hmax"] < COARSE_HMAX[0]
+    common = dict(hmax=point["hmax"], layers=point["layers"], thickness=point["thickness"],
+                  modulus=point["modulus"], solver=point["solver"],
+                  check_inertia=5 if fine else 0,
+                  coarse_hmax=COARSE_HMAX if fine else None, fine_points=FINE_POINTS)
+    if point["second"] == "tip_width":
+        c = trace_fold_curve(point["curvature"], **common)
+    else:
+        c = trace_curvature_fold_curve(point["tip_width"], point["curvature"], **common)
+    j = c.second
+    cusp = c.cusp or {}
+    rec.update(standout_length=_nan(c.standout_length), popup_length=_nan(c.popup_length),
+               cusp_tip_width=_nan(cusp.get("tip_width", point["tip_width"]
+                                            if cusp and j == "curvature" else None)),
+               cusp_curvature=_nan(cusp.get("curvature", point["curvature"]
+                                            if cusp and j == "tip_width" else None)),
+               cusp_length=_nan(cusp.get("length")), cusp_located=c.cusp_located,
+               bistable=bool(c.bistable), completed=bool(c.completed),
+               converged=bool(c.completed or not c.bistable), n_points=len(c.points),
+               factorizations=int(c.factorizations),
+               factorizations_per_point=float(c.factorizations_per_point),
+               remeshes=int(c.remeshes), message=_curve_message(c),
+               points=dumps_json([[round(p[j], 8), round(p["length"], 8), p["kind"]]
+                                  for p in c.points], compact=True),
+               wall_time_s=float(c.wall_time_s))
 
 
 def _curve_message(c) -> str:
@@ -550,23 +531,14 @@ def _curve_message(c) -> str:
     return f"{c.reason} [{text}]" if c.reason else text
 
 
-def _run_curve_chunk(points) -> list:
-    return [_run_curve_point(p) for p in points]
-
-
-def _failed_curve_point(point, message, error):
-    rec = _empty_curve_record(point, _curve_key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
-
-
 def _curve_frame(records):
     return typed_frame(records, CURVE_COLUMNS, floats=_CURVE_FLOAT, ints=_CURVE_INT,
                        bools=("bistable", "completed", "converged"), strings=_CURVE_STR)
 
 
-_CURVE_JOB = Job(task=_run_curve_chunk, failed=_failed_curve_point, frame=_curve_frame,
-                 key_of=_curve_key, required=("curvature", "second", "converged"),
+_CURVE_JOB = Job(task=EachPoint(__name__, "_run_curve_point"),
+                 failed=functools.partial(failed_record, _empty_curve_record, _curve_key),
+                 frame=_curve_frame, key_of=_curve_key, required=("curvature", "second", "converged"),
                  desc="fold curves")
 
 
@@ -588,16 +560,8 @@ def fold_curves(points, table=None, workers=None, scheduler=None, progress=True,
         One row per curve (:data:`CURVE_COLUMNS`); read it with
         :func:`curve_halves` and :func:`critical_curve`.
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use curve_points(...)), got one "
-                             "dict")
-    points = [_normalize_curve(p) for p in points]
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    path = check_table(table) if table is not None else None
+    points = study_points(points, _normalize_curve, "curve_points")
+    path = check_run(table, workers, scheduler)
     keys = [_curve_key(p) for p in points]
     done, stats = execute(points, keys, _CURVE_JOB, table=path, workers=workers,
                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,

@@ -27,13 +27,16 @@ for every study:
   (:func:`record_failure`); every record is stamped when it finishes
   (:func:`finish_record`: time, host, process) and made JSON-ready.
 
-A study describes its kind of point with a :class:`Job` and calls
+A study describes its kind of point with a :class:`Job` (usually with an
+:class:`EachPoint` task and a :func:`failed_record` for points whose task
+died), checks its arguments (:func:`study_points`, :func:`check_run`) and calls
 :func:`execute`.
 """
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib
 import io
 import json
 import math
@@ -57,7 +60,8 @@ from tqdm.auto import tqdm
 from ..io import atomic_write, check_writable, dumps_json
 from ..params import ParameterError
 
-__all__ = ["Job", "execute", "Journal", "journal_path", "read_journal", "write_table",
+__all__ = ["Job", "EachPoint", "computed_record", "failed_record", "execute", "check_run", "study_points",
+           "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
            "hash_key", "as_values", "pool", "dask", "dask_client", "MAX_POINTS"]
@@ -176,6 +180,24 @@ def finish_record(rec) -> dict:
     rec["host"] = socket.gethostname()
     rec["pid"] = os.getpid()
     return {k: _pyval(v) for k, v in rec.items()}
+
+
+def computed_record(point, key_of, empty_record, fill) -> dict:
+    """The finished record of one point, computed in this process.
+
+    ``empty_record(point, key_of(point))`` (the outputs missing), filled in
+    place by ``fill(point, rec)``; an ``Exception`` raised by ``fill`` goes
+    into the record (:func:`record_failure`, with the wall time since the
+    record was made) instead of stopping the study.  Stamped and JSON-ready
+    (:func:`finish_record`).
+    """
+    rec = empty_record(point, key_of(point))
+    t0 = time.perf_counter()
+    try:
+        fill(point, rec)
+    except Exception as err:  # noqa: BLE001 - one bad point must not stop the study
+        record_failure(rec, err, t0)
+    return finish_record(rec)
 
 
 # -- journal and table ---------------------------------------------------------------------
@@ -333,6 +355,46 @@ class Job:
     desc: str
 
 
+@dataclass(frozen=True)
+class EachPoint:
+    """A study's chunk task: its points computed in sequence, one record each, in order.
+
+    ``EachPoint(module, name)(points)`` is ``[run(p) for p in points]`` with
+    ``run = module.name``, a module-level function ``run(point) -> record``
+    that catches the exceptions of its computation (:func:`record_failure`).
+    The function is looked up by name when the task runs: the task pickles as
+    two strings (a spawned worker imports the module), and a function
+    replaced on its module (a test's stand-in) is the one called.
+
+    Attributes
+    ----------
+    module : str
+        The module's import name (``__name__`` of the study).
+    name : str
+        The function's name in it.
+    """
+
+    module: str
+    name: str
+
+    def __call__(self, points) -> list:
+        run = getattr(importlib.import_module(self.module), self.name)
+        return [run(p) for p in points]
+
+
+def failed_record(empty_record, key_of, point, message, error) -> dict:
+    """The record of a point whose task failed outside its computation (e.g. its worker died).
+
+    ``empty_record(point, key_of(point))`` (the study's record with the
+    outputs missing) with ``message`` (the reason), ``error`` (its class, e.g.
+    ``"WorkerDied"``) and the ``finished_at`` stamp.  A study binds the first
+    two arguments (``functools.partial``) to make its :attr:`Job.failed`.
+    """
+    rec = empty_record(point, key_of(point))
+    rec.update(message=message, error=error, finished_at=utc_now())
+    return rec
+
+
 def execute(points, keys, job, *, table, workers, scheduler, progress, retry_failed, chunker):
     """Run the points not yet in ``table``'s journal; journal, table and progress bar.
 
@@ -422,6 +484,31 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
             write_table(job.frame(table_records(disk, order)), table)
     return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
                   "journal": jpath}
+
+
+def study_points(points, normalize, maker) -> list:
+    """A study's ``points`` argument normalised (``normalize(point)`` each).
+
+    ``ParameterError`` for a single dict given instead of a list (``maker``
+    names the function that makes the list, e.g. ``"grid"``).
+    """
+    if isinstance(points, dict):
+        raise ParameterError(f"points must be a list of dicts (use {maker}(...)), got one dict")
+    return [normalize(p) for p in points]
+
+
+def check_run(table, workers, scheduler):
+    """Check a study's ``table``, ``workers`` and ``scheduler`` arguments; the table's path.
+
+    ``ParameterError`` for ``workers`` with ``scheduler``, ``workers`` not an
+    integer >= 1, or a bad ``table`` (:func:`check_table`); None for no table.
+    """
+    if scheduler is not None and workers is not None:
+        raise ParameterError("workers must not be given with scheduler (Dask decides)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    return check_table(table) if table is not None else None
 
 
 # -- local processes -----------------------------------------------------------------------

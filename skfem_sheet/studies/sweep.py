@@ -83,10 +83,10 @@ Examples
 """
 from __future__ import annotations
 
+import functools
 import inspect
 import itertools
 import math
-import time
 
 import numpy as np
 
@@ -98,20 +98,21 @@ from ..solve import MAX_DOFS, Result, solve
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
+    EachPoint,
     Job,
     as_values,
-    check_table,
+    check_run,
+    computed_record,
     execute,
-    finish_record,
+    failed_record,
     hash_key,
     journal_path,
     key_value,
     normalize_int,
     normalize_number,
     normalize_params,
-    record_failure,
+    study_points,
     typed_frame,
-    utc_now,
 )
 from .runner import read_journal as _read_journal
 
@@ -302,30 +303,22 @@ def _record(point, key):
 
 def _run_point(point) -> dict:
     """Solve one normalised point; every ``Exception`` becomes a failed record."""
-    key = point_key(point)
-    rec = _record(point, key)
-    t0 = time.perf_counter()
-    try:
-        sheet = Sheet(**{k: point[k] for k in _SHEET})
-        r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
-                  solver=point["solver"], on_failure="return", progress=False,
-                  **{name: rec[name] for name in OPTIONS})
-        rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
-    except Exception as err:  # noqa: BLE001 - one bad point must not stop the sweep
-        record_failure(rec, err, t0)
-    return finish_record(rec)
+    return computed_record(point, point_key, _record, _fill_record)
 
 
-def _run_chunk(points) -> list:
-    """Solve points in sequence (same mesh: the worker's mesh cache is reused)."""
-    return [_run_point(p) for p in points]
+def _fill_record(point, rec) -> None:
+    """Solve a sweep point and put the outputs of ``Result.to_record`` into its record."""
+    sheet = Sheet(**{k: point[k] for k in _SHEET})
+    r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
+              solver=point["solver"], on_failure="return", progress=False,
+              **{name: rec[name] for name in OPTIONS})
+    rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
 
 
-def _failed(point, message, error):
-    """The record of a point whose task failed outside the solve (e.g. its worker died)."""
-    rec = _record(point, point_key(point))
-    rec.update(message=message, error=error, finished_at=utc_now())
-    return rec
+#: Solve points in sequence (same mesh: the worker's mesh cache is reused).
+_run_chunk = EachPoint(__name__, "_run_point")
+#: The record of a point whose task failed outside the solve (e.g. its worker died).
+_failed = functools.partial(failed_record, _record, point_key)
 
 
 # -- journal and table ---------------------------------------------------------------------
@@ -433,20 +426,12 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
     >>> len(df), bool(df.converged[0]), round(float(df.deflection[0]), 3)
     (1, True, 0.011)
     """
-    if isinstance(points, dict):
-        raise ParameterError("points must be a list of dicts (use grid(...)), got one dict")
-    points = [normalize_point(p) for p in points]
+    points = study_points(points, normalize_point, "grid")
     if len(points) > MAX_POINTS:
         raise ParameterError(f"points must be at most {MAX_POINTS}, got {len(points)}")
-    if scheduler is not None and workers is not None:
-        raise ParameterError("workers must not be given with scheduler (Dask decides)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
     if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
         raise ParameterError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
-    path = check_table(table) if table is not None else None
-
+    path = check_run(table, workers, scheduler)
     keys = [point_key(p) for p in points]
     done, stats = execute(points, keys, _JOB, table=path, workers=workers, scheduler=scheduler,
                           progress=progress, retry_failed=retry_failed,
