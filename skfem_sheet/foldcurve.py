@@ -44,8 +44,13 @@ the coarse curve (transversal to the curve also at the cusp) -- level by
 level (hmax 0.1, 0.06, then the fine mesh: a single jump from 0.1 to 0.03
 leaves points outside Newton's basin).  A fine point costs a few
 factorisations at the fine mesh; no load path or continuation runs there.
-The cusp is the vertex of the parabola through the three refined points of
-smallest ``b`` (``b`` has a regular minimum along the curve at the cusp).
+The cusp is then located on the fine mesh where the refined points' fold
+coefficient changes sign: a few more fold points there, on sections of
+fixed tip deflection, by the secant on the coefficient
+(:func:`_cusp_by_coefficient`; ``cusp_located`` "fold coefficient on the
+fine mesh", its cost in :attr:`FoldCurve.cusp_factorizations`); without a
+sign change, the vertex of the parabola through the three refined points of
+smallest ``b`` ("refined points").
 
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
@@ -557,8 +562,15 @@ class FoldCurve:
     remeshes: int = 0
     #: How the cusp was found: "fold coefficient" (its sign change, located
     #: by regula falsi), "turning point" (where the second parameter turns
-    #: back, if the sign change was not seen), or "" (no cusp).
+    #: back, if the sign change was not seen), for a curve refined coarse to
+    #: fine "fold coefficient on the fine mesh" (the sign change of the
+    #: refined points' coefficient, located there) or "refined points" (the
+    #: turn of the refined points), or "" (no cusp).
     cusp_located: str = ""
+    #: Factorisations spent locating the cusp on the fine mesh (coarse to
+    #: fine; not counted in ``factorizations_per_point``, counted in
+    #: ``factorizations``).
+    cusp_factorizations: int = 0
     #: Coarse to fine (``coarse_hmax``): the mesh of the coarse trace, its
     #: points and factorisations (None: the curve was traced at ``hmax``).
     coarse_hmax: object = None
@@ -702,7 +714,9 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
         points around the cusp) on meshes of size ``hmax``, each from the
         coarse fold carried over, with the minimally augmented system: a few
         factorisations at ``hmax`` per point, no load path or continuation
-        there.  The cusp is then the turn of the refined points.
+        there.  The cusp is then located on the fine mesh where the
+        refined points' fold coefficient changes sign (a few more fold
+        points there).
     fine_points : int
         Points of the coarse curve refined (spaced evenly in the plane of
         the parameters), besides the ends and the cusp's neighbours.
@@ -1150,6 +1164,108 @@ def _neighbours(kept, k):
     return lo, hi
 
 
+#: The cusp of a refined curve is located on the fine mesh until the second
+#: parameter (b/a or a/R) changes by less than this between two corrections
+#: and the fold coefficient's sign change is bracketed, in at most
+#: :data:`CUSP_ITERATIONS` fold corrections, each at most
+#: :data:`CUSP_STEP` (tip deflection / a) from a fold point already found.
+CUSP_TOL = 2e-4
+CUSP_ITERATIONS = 8
+CUSP_STEP = 0.01
+
+
+def _cusp_by_coefficient(points, j, tol):
+    """The cusp of a refined curve, where the fold coefficient ``a`` vanishes.
+
+    ``points``: the refined points (:class:`_Kept`, in the order of the
+    curve); the cusp is looked for only if their ``a`` changes sign.  Along
+    the curve the vertical deflection of the tip ``d`` is a regular
+    parameter also through the cusp (neither L nor the second parameter is),
+    so the fine fold points are computed on sections ``d = d_k``
+    (:func:`~skfem_sheet.engine.fold_on_section`, L and the second parameter
+    free), each predicted linearly in ``d`` from the two fold points nearest
+    to ``d_k``, with ``d_k`` the secant zero of ``a(d)`` (inside the
+    bracket of the sign change once two points close enough bracket it, and
+    at most :data:`CUSP_STEP` from a point found).  The curve's points next
+    to the cusp may all lie on one side of it (the coarse cusp is not the
+    fine one), hence the steps rather than an interpolation across the
+    sign change.  Stops when the second parameter changes by less than
+    :data:`CUSP_TOL` between two corrections with the sign change bracketed
+    (it is stationary at the cusp along the curve: its error is second order
+    in that of ``d``).
+
+    Returns ``(cusp or None, factorisations)``; the cusp is the fold point of
+    smallest ``|a|``.
+    """
+    name, key = _SECOND[j]
+    a = [q.a for q in points]
+    change = [k for k in range(len(points) - 1) if a[k] * a[k + 1] < 0]
+    if not change:
+        return None, 0
+    k = change[0]
+    # the fold points near the cusp on one fine mesh (of the point of the
+    # sign change with the smaller |a|), sorted by tip deflection
+    home = points[k] if abs(a[k]) < abs(a[k + 1]) else points[k + 1]
+    P = home.problem
+    known = sorted(((q.tip, q.a, q.u, q.p, q.v) for q in points if q.problem is P),
+                   key=lambda r: r[0])
+    if len(known) < 2:
+        return None, 0
+    e = np.zeros_like(home.u)
+    e[P._tip] = 1.0
+    scale = P.inner(e, e)
+    f0, spent = P.refactorizations, 0
+    best, last_q, step = None, None, CUSP_STEP
+    for _ in range(CUSP_ITERATIONS):
+        d = np.array([r[0] for r in known])
+        av = np.array([r[1] for r in known])
+        # the secant zero of a(d): through the bracketing pair closest
+        # together, else through the two points of smallest |a|
+        pairs = [(i, i + 1) for i in range(len(known) - 1) if av[i] * av[i + 1] < 0]
+        if pairs:
+            lo, hi = min(pairs, key=lambda ij: d[ij[1]] - d[ij[0]])
+        else:
+            lo, hi = sorted(np.argsort(np.abs(av))[:2])
+        if av[hi] == av[lo]:
+            break
+        target = d[lo] - av[lo] * (d[hi] - d[lo]) / (av[hi] - av[lo])
+        if pairs:  # strictly inside the bracket
+            target = float(np.clip(target, d[lo] + 0.05 * (d[hi] - d[lo]),
+                                   d[hi] - 0.05 * (d[hi] - d[lo])))
+        near = int(np.argmin(np.abs(d - target)))
+        target = float(np.clip(target, d[near] - step, d[near] + step))
+        # linear prediction in d from the two known points nearest to target
+        i1, i2 = sorted(np.argsort(np.abs(d - target))[:2])
+        w = (target - d[i1]) / (d[i2] - d[i1])
+        r1, r2 = known[i1], known[i2]
+        v2 = r2[4] if P.inner(r1[4], r2[4]) >= 0 else -r2[4]
+        u = r1[2] + w * (r2[2] - r1[2])
+        p = r1[3] + w * (r2[3] - r1[3])
+        fold, res = fold_on_section(P, u, p, ("L", name),
+                                    (e, np.zeros_like(p), scale * target),
+                                    v0=r1[4] + w * (v2 - r1[4]), tol=tol)
+        spent += res.stats.factorizations if fold is None else fold.stats.factorizations
+        if fold is None:
+            step = 0.5 * min(step, abs(target - d[near]) or step)
+            if step < 1e-4:
+                break
+            continue
+        if best is None or abs(fold.a) < abs(best.a):
+            best = fold
+        tip = float(fold.u[P._tip])
+        known = sorted([*known, (tip, float(fold.a), fold.u, np.array(fold.p), fold.v)],
+                       key=lambda r: r[0])
+        q = float(fold.p[j])
+        bracketed = any(r[1] * fold.a <= 0 for r in known)
+        if fold.a == 0 or (bracketed and last_q is not None and abs(q - last_q) < CUSP_TOL):
+            break
+        last_q = q
+    spent += P.refactorizations - f0
+    if best is None:
+        return None, spent
+    return {key: float(best.p[j]), "length": float(best.p[0])}, spent
+
+
 def _fine_cusp(points, j):
     """The cusp of refined points: the vertex of the parabola through the
     three points of the smallest second parameter, in the tip deflection
@@ -1271,6 +1387,10 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
     if series is not None:
         for q in points:
             _add_frame(series, q.problem, q.u, q.p)
+    cusp, located, cusp_cost = None, "", 0
+    if stages[-1]["hmax"] == hmax and len(points) == len(pts):
+        cusp, cusp_cost = _cusp_by_coefficient(points, j, FINE_TOLERANCES)
+        located = "fold coefficient on the fine mesh" if cusp is not None else ""
     del points
     # complete: both ends refined at hmax (a point lost on the way only thins the curve)
     completed = coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
@@ -1283,14 +1403,17 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
         out_points[0][key] = float(bounds_j[1])
         if completed:
             out_points[-1][key] = float(bounds_j[1])
-    cusp = _fine_cusp(pts, j)
+    if cusp is None:
+        cusp = _fine_cusp(pts, j)
+        located = "refined points" if cusp is not None else ""
     per_point = [q["factorizations"] for q in pts]
-    total = coarse.factorizations + int(sum(st["factorizations"] for st in stages))
+    total = (coarse.factorizations + int(sum(st["factorizations"] for st in stages))
+             + cusp_cost)
     return FoldCurve(curvature, out_points, cusp, int(total),
                      float(np.median(per_point)) if per_point else float("nan"),
                      time.perf_counter() - t0, hmax, completed, reason,
                      tuple(q["negative"] for q in pts), tuple(q["crossing"] for q in pts),
                      None, key, tip_width, remeshes=coarse.remeshes + len(fine.meshes),
-                     cusp_located="refined points" if cusp is not None else "",
+                     cusp_located=located, cusp_factorizations=cusp_cost,
                      coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
                      coarse_factorizations=coarse.factorizations, stages=tuple(stages))
