@@ -83,7 +83,7 @@ from .engine import (
     natural,
 )
 from .engine import FoldCurve as EngineFoldCurve
-from .engine.fold import equilibrium_on_section, inertia_crossing
+from .engine.fold import FoldPoint, equilibrium_on_section, inertia_crossing
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
 from .newton import Stats
@@ -1088,7 +1088,7 @@ class _FineMeshes:
         return P
 
 
-def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
+def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, ends=None):
     """The fold curve on the fine meshes from the coarse points ``kept[chosen]``.
 
     Each chosen coarse point is carried onto a fine mesh (state and null
@@ -1102,7 +1102,10 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
     ``(points, failures, spent)``: points as dicts with the fold, its
     factorisations and inertia, and the fine point as a :class:`_Kept`
     (``"kept"``, to refine further), in the order of the coarse curve;
-    ``spent``: the factorisations of the points that failed."""
+    ``spent``: the factorisations of the points that failed.  ``ends``:
+    the positions in ``chosen`` of the ends (default: the first, and the
+    last if ``last_is_end``); an end that comes out as the other kind of
+    fold (the pop-up fold found from a standout one) counts as failed."""
     name = _SECOND[j][0]
     band = [kept[k].p[0] for k in chosen]
     out, failures, spent = [], [], 0
@@ -1112,7 +1115,7 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
         f0 = Pf.refactorizations
         u = c.problem.transferred(Pf, c.u, c.p)
         v = c.problem.transferred(Pf, c.v, c.p, state=False)
-        end = n == 0 or (last_is_end and n == len(chosen) - 1)
+        end = (n == 0 or (last_is_end and n == len(chosen) - 1)) if ends is None else n in ends
         section = None
         if not end:
             lo, hi = _neighbours(kept, k)
@@ -1130,6 +1133,9 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
             lost += settled.stats.factorizations
             if settled.converged:
                 fold, res = _fold_from(Pf, section, name, settled.u, settled.p, v, tol)
+        if fold is not None and end and int(fold.side) != c.side:
+            lost += fold.stats.factorizations
+            fold, res = None, dataclasses.replace(res, reason="the other kind of fold")
         if fold is None:
             failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
             spent += lost + res.stats.factorizations + Pf.refactorizations - f0
@@ -1143,9 +1149,70 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
                         iterations=int(res.iterations),
                         factorizations=int(fold.stats.factorizations + extra + lost
                                            + Pf.refactorizations - f0), end=end,
+                        refill=False,
                         kept=_Kept(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
                                    int(fold.side), tip)))
     return out, failures, spent
+
+
+#: First and largest arclength step of the continuation on a fine mesh
+#: that replaces an end which could not be refined (:func:`_continue_to_end`).
+REFILL_DS = (0.02, 0.2)
+
+
+def _continue_to_end(pts, last, want, j, bounds_j, length_range, tol, check_inertia):
+    """An end of a refined curve that could not be refined, traced on the fine
+    mesh instead: the fold curve continued there
+    (:func:`skfem_sheet.engine.fold_curve`) from the refined point next to
+    it (``last``: the last end, else the first) to the start value of the
+    second parameter, away from the cusp if that point is of the end's kind
+    (``want``: its side) and through the cusp otherwise.
+
+    A fallback for a curve whose coarse ends lie outside the fine fold
+    system's basin (at a/R = 1 the two folds at b = 1 are 0.0013 apart in
+    L/a while the fine folds lie 0.01 lower than the coarse ones).  Returns
+    ``(points, lost, reason)``: the new points in the order of the curve
+    (the end included, flagged ``"end"``; the start point left out), as the
+    dicts of :func:`_refine`, and the factorisations not counted in their
+    ``"factorizations"``; or ``([], factorisations, reason)``.
+    """
+    name = _SECOND[j][0]
+    K = (pts[-1] if last else pts[0])["kept"]
+    P = K.problem
+    f0 = P.refactorizations
+    start = FoldPoint(K.u, np.array(K.p), K.v, 0.0, K.a, K.side, 0)
+    seen = []
+    box = P.remesh_box(j, length_range, bounds_j)
+    c = fold_curve(P, start, ("L", name), box, ds=REFILL_DS[0], ds_min=1e-4, ds_max=REFILL_DS[1],
+                   direction=1 if K.side == want else -1, tol=tol, cusp_tol=1e-4,
+                   check_inertia=0, easy_iterations=3, predictor=PREDICTOR,
+                   target_correction=TARGET_CORRECTION, max_points=60, keep_states=True,
+                   on_point=lambda pt, u, v: seen.append((np.array(u), np.array(v))))
+    total = c.stats.factorizations + P.refactorizations - f0
+    end = c.points[-1] if c.points else None
+    if not (c.completed and end is not None and abs(end.p[j] - bounds_j[1]) < 1e-9
+            and end.side == want):
+        return [], total, (f"continued on the fine mesh to {name} = {bounds_j[1]:g}: "
+                           f"{c.reason or 'ended elsewhere'}")
+    out = []
+    for n, (pt, (u, v)) in enumerate(zip(c.points[1:], seen[1:]), start=1):
+        is_end = n == len(c.points) - 1
+        crossing, extra = None, 0
+        if check_inertia and is_end:
+            f1 = P.refactorizations
+            crossing = inertia_crossing(P, u, pt.p, v, 1e-4)
+            extra = 2 + P.refactorizations - f1
+        tip = float(u[P._tip])
+        out.append(dict(p=np.array(pt.p), a=float(pt.a), side=int(pt.side), tip=tip,
+                        negative=pt.negative_eigenvalues, crossing=crossing,
+                        iterations=int(pt.iterations),
+                        factorizations=int(pt.factorizations + extra), end=is_end,
+                        refill=not is_end,
+                        kept=_Kept(P, np.array(pt.p), u, v, float(pt.a), int(pt.side), tip)))
+    lost = total - sum(pt.factorizations for pt in c.points[1:])
+    if not last:
+        out.reverse()
+    return out, lost, ""
 
 
 def _fold_from(P, section, name, u, p, v, tol):
@@ -1365,22 +1432,41 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
     levels = [h for h in sorted(set(coarse_levels[1:]), reverse=True) if h > hmax] + [hmax]
     # the last point is a fold in L at the start value only if the coarse curve came back
     points, chosen = kept.points, _select(kept.points, fine_points)
-    stages, failures, meshes, spent = [], [], 0, 0
+    sides = (kept.points[0].side, kept.points[-1].side)  # the kinds of the two ends
+    stages, failures, meshes, spent, ends = [], [], 0, 0, None
     for h in levels:
         fine = _FineMeshes(curvature, h, 1.0 if j == 1 else tip_width, kw_mesh)
-        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES,
-                                    check_inertia if h == hmax else 0,
-                                    last_is_end=coarse.completed)
+        ci = check_inertia if h == hmax else 0
+        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES, ci,
+                                    last_is_end=coarse.completed, ends=ends)
+        # an end not refined (outside the fine fold system's basin): the curve
+        # continued on this mesh from the refined point next to it instead
+        refilled = 0
+        for last in ((False, True) if coarse.completed else (False,)):
+            if len(pts) < 2 or (pts[-1] if last else pts[0])["end"]:
+                continue
+            new, extra, why = _continue_to_end(pts, last, sides[int(last)], j, bounds_j,
+                                               kw["length_range"], FINE_TOLERANCES, ci)
+            lost += extra
+            refilled += len(new)
+            if new:
+                pts = pts + new if last else new + pts
+            else:
+                failed.append(why)
         failures += [f"hmax {h:g}: {f}" for f in failed]
         spent += lost
         meshes += len(fine.meshes)
         per = [q["factorizations"] for q in pts]
-        stages.append(dict(hmax=h, points=len(pts), failed=len(failed),
+        stages.append(dict(hmax=h, points=len(pts), failed=len(failed), refilled=refilled,
                            factorizations=int(sum(per)) + lost,
                            factorizations_per_point=float(np.median(per)) if per else None))
         for P in {id(q.problem): q.problem for q in points}.values():
             P.release()  # the coarser level's factorisations and mapped meshes
-        points, chosen = [q.pop("kept") for q in pts], list(range(len(pts)))
+        # the next level refines this one's points except those of a
+        # continuation (they serve as neighbours; its end is refined)
+        points = [q.pop("kept") for q in pts]
+        chosen = [k for k, q in enumerate(pts) if not q["refill"] or h == hmax]
+        ends = {n for n, k in enumerate(chosen) if pts[k]["end"]}
         if len(points) < 2:
             break
     del kept
