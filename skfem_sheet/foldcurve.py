@@ -50,7 +50,12 @@ fixed tip deflection, by the secant on the coefficient
 (:func:`_cusp_by_coefficient`; ``cusp_located`` "fold coefficient on the
 fine mesh", its cost in :attr:`FoldCurve.cusp_factorizations`); without a
 sign change, the vertex of the parabola through the three refined points of
-smallest ``b`` ("refined points").
+smallest ``b`` ("refined points").  An end that does not converge on the
+finer mesh (at a/R = 1 the two folds at b = 1 lie 0.0013 apart in L/a and
+0.01 below the coarse ones from hmax 0.1 to 0.06) is traced there instead:
+the fold curve is continued on that mesh from the refined point next to it
+to the start value (:func:`_continue_to_end`; used only where the
+refinement of an end fails).
 
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
