@@ -188,6 +188,32 @@ def test_refined_curve_agrees_with_the_curve_traced_at_the_fine_mesh():
 
 
 @pytest.mark.slow
+def test_an_end_outside_the_fine_basin_is_traced_on_the_fine_mesh():
+    """a/R = 1 from hmax 0.1 to 0.06: the two folds at b = 1 are 0.0013 apart
+    in L/a and 0.012 below the coarse ones, the standout end and its
+    neighbours do not converge on the fine mesh; the end is traced there
+    instead.  The curve is complete, a standout half then a pop-up half,
+    L1* > L0*, one eigenvalue crossing at both ends, and the bistable window
+    and the cusp as the curve traced directly at hmax 0.06 (another mesh of
+    that size: L/a itself to 3e-3, as above)."""
+    fine = trace_fold_curve(1.0, hmax=0.06, coarse_hmax=0.1, fine_points=6, check_inertia=5)
+    direct = trace_fold_curve(1.0, hmax=0.06, check_inertia=0)
+    assert fine.completed and direct.completed, (fine.reason, direct.reason)
+    assert fine.stages[-1]["refilled"] > 0
+    kinds = [p["kind"] for p in fine.points]
+    n = kinds.count("standout")
+    assert 0 < n < len(kinds) and kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    assert fine.standout_length > fine.popup_length
+    assert fine.standout_length == pytest.approx(direct.standout_length, abs=3e-3)
+    assert fine.popup_length == pytest.approx(direct.popup_length, abs=3e-3)
+    window = fine.standout_length - fine.popup_length
+    assert window == pytest.approx(direct.standout_length - direct.popup_length, abs=2e-4)
+    assert fine.cusp["tip_width"] == pytest.approx(direct.cusp["tip_width"], abs=2e-3)
+    for cross in fine.crossing[:1] + fine.crossing[-1:]:
+        assert cross is not None and abs(cross[1] - cross[0]) == 1
+
+
+@pytest.mark.slow
 def test_cli_fold_curve_writes_its_series(tmp_path):
     """``fold-curve --series DIR`` writes DIR/<name>.pvd with one step per point."""
     out = tmp_path / "c.json"
