@@ -77,7 +77,8 @@ def curve_case(curvature, hmax, coarse_hmax=None, fine_points=FINE_POINTS):
                 factorizations=c.factorizations,
                 factorizations_per_point=c.factorizations_per_point, wall_time_s=wall,
                 standout_length=c.standout_length, popup_length=c.popup_length,
-                cusp=c.cusp, cusp_located=c.cusp_located, remeshes=c.remeshes,
+                cusp=c.cusp, cusp_located=c.cusp_located,
+                cusp_factorizations=c.cusp_factorizations, remeshes=c.remeshes,
                 completed=c.completed, bistable=c.bistable, reason=c.reason,
                 coarse_hmax=c.coarse_hmax, coarse_points=c.coarse_points,
                 coarse_factorizations=c.coarse_factorizations, stages=list(c.stages),
@@ -222,9 +223,13 @@ def main(argv=None):
               f"{_fmt(cusp.get('length'))}  {r['remeshes']:8d}"
               + ("" if r["completed"] else f"  ({r['reason']})"), flush=True)
         for st in r.get("stages") or []:
-            print(f"       hmax {st['hmax']:g}: {st['points']} points ({st['failed']} failed), "
-                  f"{st['factorizations']} factorisations, "
+            print(f"       hmax {st['hmax']:g}: {st['points']} points ({st['failed']} failed"
+                  + (f", {st['refilled']} continued on that mesh" if st.get("refilled") else "")
+                  + f"), {st['factorizations']} factorisations, "
                   f"{_fmt(st['factorizations_per_point'], '.1f')} per point (median)")
+        if r.get("cusp_located"):
+            print(f"       cusp located by the {r['cusp_located']} "
+                  f"({r.get('cusp_factorizations') or 0} factorisations)")
         if r.get("coarse_hmax") is not None:
             print(f"       coarse trace at hmax {r['coarse_hmax']:g}: {r['coarse_points']} "
                   f"points, {r['coarse_factorizations']} factorisations")

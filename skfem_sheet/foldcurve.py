@@ -44,8 +44,18 @@ the coarse curve (transversal to the curve also at the cusp) -- level by
 level (hmax 0.1, 0.06, then the fine mesh: a single jump from 0.1 to 0.03
 leaves points outside Newton's basin).  A fine point costs a few
 factorisations at the fine mesh; no load path or continuation runs there.
-The cusp is the vertex of the parabola through the three refined points of
-smallest ``b`` (``b`` has a regular minimum along the curve at the cusp).
+The cusp is then located on the fine mesh where the refined points' fold
+coefficient changes sign: a few more fold points there, on sections of
+fixed tip deflection, by the secant on the coefficient
+(:func:`_cusp_by_coefficient`; ``cusp_located`` "fold coefficient on the
+fine mesh", its cost in :attr:`FoldCurve.cusp_factorizations`); without a
+sign change, the vertex of the parabola through the three refined points of
+smallest ``b`` ("refined points").  An end that does not converge on the
+finer mesh (at a/R = 1 the two folds at b = 1 lie 0.0013 apart in L/a and
+0.01 below the coarse ones from hmax 0.1 to 0.06) is traced there instead:
+the fold curve is continued on that mesh from the refined point next to it
+to the start value (:func:`_continue_to_end`; used only where the
+refinement of an end fails).
 
 Everything this module needs from the rest of the package goes through the
 adapter class :class:`_Sheet` at the top (the one place to change when those
@@ -78,7 +88,7 @@ from .engine import (
     natural,
 )
 from .engine import FoldCurve as EngineFoldCurve
-from .engine.fold import equilibrium_on_section, inertia_crossing
+from .engine.fold import FoldPoint, equilibrium_on_section, inertia_crossing
 from .linalg import make_linear_solver
 from .mesh import SheetMesh, sheet_mesh
 from .newton import Stats
@@ -557,8 +567,15 @@ class FoldCurve:
     remeshes: int = 0
     #: How the cusp was found: "fold coefficient" (its sign change, located
     #: by regula falsi), "turning point" (where the second parameter turns
-    #: back, if the sign change was not seen), or "" (no cusp).
+    #: back, if the sign change was not seen), for a curve refined coarse to
+    #: fine "fold coefficient on the fine mesh" (the sign change of the
+    #: refined points' coefficient, located there) or "refined points" (the
+    #: turn of the refined points), or "" (no cusp).
     cusp_located: str = ""
+    #: Factorisations spent locating the cusp on the fine mesh (coarse to
+    #: fine; not counted in ``factorizations_per_point``, counted in
+    #: ``factorizations``).
+    cusp_factorizations: int = 0
     #: Coarse to fine (``coarse_hmax``): the mesh of the coarse trace, its
     #: points and factorisations (None: the curve was traced at ``hmax``).
     coarse_hmax: object = None
@@ -702,7 +719,9 @@ def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
         points around the cusp) on meshes of size ``hmax``, each from the
         coarse fold carried over, with the minimally augmented system: a few
         factorisations at ``hmax`` per point, no load path or continuation
-        there.  The cusp is then the turn of the refined points.
+        there.  The cusp is then located on the fine mesh where the
+        refined points' fold coefficient changes sign (a few more fold
+        points there).
     fine_points : int
         Points of the coarse curve refined (spaced evenly in the plane of
         the parameters), besides the ends and the cusp's neighbours.
@@ -1074,7 +1093,7 @@ class _FineMeshes:
         return P
 
 
-def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
+def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, ends=None):
     """The fold curve on the fine meshes from the coarse points ``kept[chosen]``.
 
     Each chosen coarse point is carried onto a fine mesh (state and null
@@ -1088,7 +1107,10 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
     ``(points, failures, spent)``: points as dicts with the fold, its
     factorisations and inertia, and the fine point as a :class:`_Kept`
     (``"kept"``, to refine further), in the order of the coarse curve;
-    ``spent``: the factorisations of the points that failed."""
+    ``spent``: the factorisations of the points that failed.  ``ends``:
+    the positions in ``chosen`` of the ends (default: the first, and the
+    last if ``last_is_end``); an end that comes out as the other kind of
+    fold (the pop-up fold found from a standout one) counts as failed."""
     name = _SECOND[j][0]
     band = [kept[k].p[0] for k in chosen]
     out, failures, spent = [], [], 0
@@ -1098,7 +1120,7 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
         f0 = Pf.refactorizations
         u = c.problem.transferred(Pf, c.u, c.p)
         v = c.problem.transferred(Pf, c.v, c.p, state=False)
-        end = n == 0 or (last_is_end and n == len(chosen) - 1)
+        end = (n == 0 or (last_is_end and n == len(chosen) - 1)) if ends is None else n in ends
         section = None
         if not end:
             lo, hi = _neighbours(kept, k)
@@ -1116,6 +1138,9 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
             lost += settled.stats.factorizations
             if settled.converged:
                 fold, res = _fold_from(Pf, section, name, settled.u, settled.p, v, tol)
+        if fold is not None and end and int(fold.side) != c.side:
+            lost += fold.stats.factorizations
+            fold, res = None, dataclasses.replace(res, reason="the other kind of fold")
         if fold is None:
             failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
             spent += lost + res.stats.factorizations + Pf.refactorizations - f0
@@ -1129,9 +1154,70 @@ def _refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True):
                         iterations=int(res.iterations),
                         factorizations=int(fold.stats.factorizations + extra + lost
                                            + Pf.refactorizations - f0), end=end,
+                        refill=False,
                         kept=_Kept(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
                                    int(fold.side), tip)))
     return out, failures, spent
+
+
+#: First and largest arclength step of the continuation on a fine mesh
+#: that replaces an end which could not be refined (:func:`_continue_to_end`).
+REFILL_DS = (0.02, 0.2)
+
+
+def _continue_to_end(pts, last, want, j, bounds_j, length_range, tol, check_inertia):
+    """An end of a refined curve that could not be refined, traced on the fine
+    mesh instead: the fold curve continued there
+    (:func:`skfem_sheet.engine.fold_curve`) from the refined point next to
+    it (``last``: the last end, else the first) to the start value of the
+    second parameter, away from the cusp if that point is of the end's kind
+    (``want``: its side) and through the cusp otherwise.
+
+    A fallback for a curve whose coarse ends lie outside the fine fold
+    system's basin (at a/R = 1 the two folds at b = 1 are 0.0013 apart in
+    L/a while the fine folds lie 0.01 lower than the coarse ones).  Returns
+    ``(points, lost, reason)``: the new points in the order of the curve
+    (the end included, flagged ``"end"``; the start point left out), as the
+    dicts of :func:`_refine`, and the factorisations not counted in their
+    ``"factorizations"``; or ``([], factorisations, reason)``.
+    """
+    name = _SECOND[j][0]
+    K = (pts[-1] if last else pts[0])["kept"]
+    P = K.problem
+    f0 = P.refactorizations
+    start = FoldPoint(K.u, np.array(K.p), K.v, 0.0, K.a, K.side, 0)
+    seen = []
+    box = P.remesh_box(j, length_range, bounds_j)
+    c = fold_curve(P, start, ("L", name), box, ds=REFILL_DS[0], ds_min=1e-4, ds_max=REFILL_DS[1],
+                   direction=1 if K.side == want else -1, tol=tol, cusp_tol=1e-4,
+                   check_inertia=0, easy_iterations=3, predictor=PREDICTOR,
+                   target_correction=TARGET_CORRECTION, max_points=60, keep_states=True,
+                   on_point=lambda pt, u, v: seen.append((np.array(u), np.array(v))))
+    total = c.stats.factorizations + P.refactorizations - f0
+    end = c.points[-1] if c.points else None
+    if not (c.completed and end is not None and abs(end.p[j] - bounds_j[1]) < 1e-9
+            and end.side == want):
+        return [], total, (f"continued on the fine mesh to {name} = {bounds_j[1]:g}: "
+                           f"{c.reason or 'ended elsewhere'}")
+    out = []
+    for n, (pt, (u, v)) in enumerate(zip(c.points[1:], seen[1:]), start=1):
+        is_end = n == len(c.points) - 1
+        crossing, extra = None, 0
+        if check_inertia and is_end:
+            f1 = P.refactorizations
+            crossing = inertia_crossing(P, u, pt.p, v, 1e-4)
+            extra = 2 + P.refactorizations - f1
+        tip = float(u[P._tip])
+        out.append(dict(p=np.array(pt.p), a=float(pt.a), side=int(pt.side), tip=tip,
+                        negative=pt.negative_eigenvalues, crossing=crossing,
+                        iterations=int(pt.iterations),
+                        factorizations=int(pt.factorizations + extra), end=is_end,
+                        refill=not is_end,
+                        kept=_Kept(P, np.array(pt.p), u, v, float(pt.a), int(pt.side), tip)))
+    lost = total - sum(pt.factorizations for pt in c.points[1:])
+    if not last:
+        out.reverse()
+    return out, lost, ""
 
 
 def _fold_from(P, section, name, u, p, v, tol):
@@ -1148,6 +1234,108 @@ def _neighbours(kept, k):
     if lo == hi:
         raise ParameterError("a coarse fold-curve point without a neighbour on its mesh")
     return lo, hi
+
+
+#: The cusp of a refined curve is located on the fine mesh until the second
+#: parameter (b/a or a/R) changes by less than this between two corrections
+#: and the fold coefficient's sign change is bracketed, in at most
+#: :data:`CUSP_ITERATIONS` fold corrections, each at most
+#: :data:`CUSP_STEP` (tip deflection / a) from a fold point already found.
+CUSP_TOL = 2e-4
+CUSP_ITERATIONS = 8
+CUSP_STEP = 0.01
+
+
+def _cusp_by_coefficient(points, j, tol):
+    """The cusp of a refined curve, where the fold coefficient ``a`` vanishes.
+
+    ``points``: the refined points (:class:`_Kept`, in the order of the
+    curve); the cusp is looked for only if their ``a`` changes sign.  Along
+    the curve the vertical deflection of the tip ``d`` is a regular
+    parameter also through the cusp (neither L nor the second parameter is),
+    so the fine fold points are computed on sections ``d = d_k``
+    (:func:`~skfem_sheet.engine.fold_on_section`, L and the second parameter
+    free), each predicted linearly in ``d`` from the two fold points nearest
+    to ``d_k``, with ``d_k`` the secant zero of ``a(d)`` (inside the
+    bracket of the sign change once two points close enough bracket it, and
+    at most :data:`CUSP_STEP` from a point found).  The curve's points next
+    to the cusp may all lie on one side of it (the coarse cusp is not the
+    fine one), hence the steps rather than an interpolation across the
+    sign change.  Stops when the second parameter changes by less than
+    :data:`CUSP_TOL` between two corrections with the sign change bracketed
+    (it is stationary at the cusp along the curve: its error is second order
+    in that of ``d``).
+
+    Returns ``(cusp or None, factorisations)``; the cusp is the fold point of
+    smallest ``|a|``.
+    """
+    name, key = _SECOND[j]
+    a = [q.a for q in points]
+    change = [k for k in range(len(points) - 1) if a[k] * a[k + 1] < 0]
+    if not change:
+        return None, 0
+    k = change[0]
+    # the fold points near the cusp on one fine mesh (of the point of the
+    # sign change with the smaller |a|), sorted by tip deflection
+    home = points[k] if abs(a[k]) < abs(a[k + 1]) else points[k + 1]
+    P = home.problem
+    known = sorted(((q.tip, q.a, q.u, q.p, q.v) for q in points if q.problem is P),
+                   key=lambda r: r[0])
+    if len(known) < 2:
+        return None, 0
+    e = np.zeros_like(home.u)
+    e[P._tip] = 1.0
+    scale = P.inner(e, e)
+    f0, spent = P.refactorizations, 0
+    best, last_q, step = None, None, CUSP_STEP
+    for _ in range(CUSP_ITERATIONS):
+        d = np.array([r[0] for r in known])
+        av = np.array([r[1] for r in known])
+        # the secant zero of a(d): through the bracketing pair closest
+        # together, else through the two points of smallest |a|
+        pairs = [(i, i + 1) for i in range(len(known) - 1) if av[i] * av[i + 1] < 0]
+        if pairs:
+            lo, hi = min(pairs, key=lambda ij: d[ij[1]] - d[ij[0]])
+        else:
+            lo, hi = sorted(np.argsort(np.abs(av))[:2])
+        if av[hi] == av[lo]:
+            break
+        target = d[lo] - av[lo] * (d[hi] - d[lo]) / (av[hi] - av[lo])
+        if pairs:  # strictly inside the bracket
+            target = float(np.clip(target, d[lo] + 0.05 * (d[hi] - d[lo]),
+                                   d[hi] - 0.05 * (d[hi] - d[lo])))
+        near = int(np.argmin(np.abs(d - target)))
+        target = float(np.clip(target, d[near] - step, d[near] + step))
+        # linear prediction in d from the two known points nearest to target
+        i1, i2 = sorted(np.argsort(np.abs(d - target))[:2])
+        w = (target - d[i1]) / (d[i2] - d[i1])
+        r1, r2 = known[i1], known[i2]
+        v2 = r2[4] if P.inner(r1[4], r2[4]) >= 0 else -r2[4]
+        u = r1[2] + w * (r2[2] - r1[2])
+        p = r1[3] + w * (r2[3] - r1[3])
+        fold, res = fold_on_section(P, u, p, ("L", name),
+                                    (e, np.zeros_like(p), scale * target),
+                                    v0=r1[4] + w * (v2 - r1[4]), tol=tol)
+        spent += res.stats.factorizations if fold is None else fold.stats.factorizations
+        if fold is None:
+            step = 0.5 * min(step, abs(target - d[near]) or step)
+            if step < 1e-4:
+                break
+            continue
+        if best is None or abs(fold.a) < abs(best.a):
+            best = fold
+        tip = float(fold.u[P._tip])
+        known = sorted([*known, (tip, float(fold.a), fold.u, np.array(fold.p), fold.v)],
+                       key=lambda r: r[0])
+        q = float(fold.p[j])
+        bracketed = any(r[1] * fold.a <= 0 for r in known)
+        if fold.a == 0 or (bracketed and last_q is not None and abs(q - last_q) < CUSP_TOL):
+            break
+        last_q = q
+    spent += P.refactorizations - f0
+    if best is None:
+        return None, spent
+    return {key: float(best.p[j]), "length": float(best.p[0])}, spent
 
 
 def _fine_cusp(points, j):
@@ -1249,28 +1437,51 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
     levels = [h for h in sorted(set(coarse_levels[1:]), reverse=True) if h > hmax] + [hmax]
     # the last point is a fold in L at the start value only if the coarse curve came back
     points, chosen = kept.points, _select(kept.points, fine_points)
-    stages, failures, meshes, spent = [], [], 0, 0
+    sides = (kept.points[0].side, kept.points[-1].side)  # the kinds of the two ends
+    stages, failures, meshes, spent, ends = [], [], 0, 0, None
     for h in levels:
         fine = _FineMeshes(curvature, h, 1.0 if j == 1 else tip_width, kw_mesh)
-        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES,
-                                    check_inertia if h == hmax else 0,
-                                    last_is_end=coarse.completed)
+        ci = check_inertia if h == hmax else 0
+        pts, failed, lost = _refine(points, chosen, j, fine, FINE_TOLERANCES, ci,
+                                    last_is_end=coarse.completed, ends=ends)
+        # an end not refined (outside the fine fold system's basin): the curve
+        # continued on this mesh from the refined point next to it instead
+        refilled = 0
+        for last in ((False, True) if coarse.completed else (False,)):
+            if len(pts) < 2 or (pts[-1] if last else pts[0])["end"]:
+                continue
+            new, extra, why = _continue_to_end(pts, last, sides[int(last)], j, bounds_j,
+                                               kw["length_range"], FINE_TOLERANCES, ci)
+            lost += extra
+            refilled += len(new)
+            if new:
+                pts = pts + new if last else new + pts
+            else:
+                failed.append(why)
         failures += [f"hmax {h:g}: {f}" for f in failed]
         spent += lost
         meshes += len(fine.meshes)
         per = [q["factorizations"] for q in pts]
-        stages.append(dict(hmax=h, points=len(pts), failed=len(failed),
+        stages.append(dict(hmax=h, points=len(pts), failed=len(failed), refilled=refilled,
                            factorizations=int(sum(per)) + lost,
                            factorizations_per_point=float(np.median(per)) if per else None))
         for P in {id(q.problem): q.problem for q in points}.values():
             P.release()  # the coarser level's factorisations and mapped meshes
-        points, chosen = [q.pop("kept") for q in pts], list(range(len(pts)))
+        # the next level refines this one's points except those of a
+        # continuation (they serve as neighbours; its end is refined)
+        points = [q.pop("kept") for q in pts]
+        chosen = [k for k, q in enumerate(pts) if not q["refill"] or h == hmax]
+        ends = {n for n, k in enumerate(chosen) if pts[k]["end"]}
         if len(points) < 2:
             break
     del kept
     if series is not None:
         for q in points:
             _add_frame(series, q.problem, q.u, q.p)
+    cusp, located, cusp_cost = None, "", 0
+    if stages[-1]["hmax"] == hmax and len(points) == len(pts):
+        cusp, cusp_cost = _cusp_by_coefficient(points, j, FINE_TOLERANCES)
+        located = "fold coefficient on the fine mesh" if cusp is not None else ""
     del points
     # complete: both ends refined at hmax (a point lost on the way only thins the curve)
     completed = coarse.completed and len(pts) >= 2 and pts[0]["end"] and pts[-1]["end"]
@@ -1283,14 +1494,17 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
         out_points[0][key] = float(bounds_j[1])
         if completed:
             out_points[-1][key] = float(bounds_j[1])
-    cusp = _fine_cusp(pts, j)
+    if cusp is None:
+        cusp = _fine_cusp(pts, j)
+        located = "refined points" if cusp is not None else ""
     per_point = [q["factorizations"] for q in pts]
-    total = coarse.factorizations + int(sum(st["factorizations"] for st in stages))
+    total = (coarse.factorizations + int(sum(st["factorizations"] for st in stages))
+             + cusp_cost)
     return FoldCurve(curvature, out_points, cusp, int(total),
                      float(np.median(per_point)) if per_point else float("nan"),
                      time.perf_counter() - t0, hmax, completed, reason,
                      tuple(q["negative"] for q in pts), tuple(q["crossing"] for q in pts),
                      None, key, tip_width, remeshes=coarse.remeshes + len(fine.meshes),
-                     cusp_located="refined points" if cusp is not None else "",
+                     cusp_located=located, cusp_factorizations=cusp_cost,
                      coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
                      coarse_factorizations=coarse.factorizations, stages=tuple(stages))

@@ -5,9 +5,21 @@ import numpy as np
 import pytest
 
 from skfem_sheet.cli import main
-from skfem_sheet.engine import FunctionProblem, fold_curve, fold_on_section, locate_fold
+from skfem_sheet.engine import (
+    FunctionProblem,
+    Tolerances,
+    fold_curve,
+    fold_on_section,
+    locate_fold,
+)
 from skfem_sheet.engine.fold import equilibrium_on_section
-from skfem_sheet.foldcurve import SheetFoldProblem, trace_fold_curve
+from skfem_sheet.foldcurve import (
+    CUSP_TOL,
+    SheetFoldProblem,
+    _cusp_by_coefficient,
+    _Kept,
+    trace_fold_curve,
+)
 from skfem_sheet.io import Series, read_pvd
 from skfem_sheet.params import ParameterError
 
@@ -17,6 +29,48 @@ COARSE = 0.2
 def cusp_problem():
     return FunctionProblem(lambda u, p: u**3 - p[1] * u - p[0],
                            lambda u, p: np.diag(3 * u**2 - p[1]), ("lam", "mu"))
+
+
+class _ToyCusp(FunctionProblem):
+    """The cusp normal form with a second state ``y`` read as the tip
+    deflection: equilibria ``y = x``, ``x^3 - b x - L = 0``, folds at ``(L, b) = (-2 c^3, 3 c^2)``,
+    ``x = y = c``, the cusp at the origin."""
+
+    _tip = 1
+    refactorizations = 0
+
+    def __init__(self):
+        # the gradient of x^4/4 - b x^2/2 - L x + (y - x)^2/2 (a symmetric tangent)
+        super().__init__(lambda u, p: np.array([u[0]**3 - p[1] * u[0] - p[0] - (u[1] - u[0]),
+                                                u[1] - u[0]]),
+                         lambda u, p: np.array([[3 * u[0]**2 - p[1] + 1, -1.0], [-1.0, 1.0]]),
+                         ("L", "b"))
+
+
+def _toy_points(P, cs):
+    out = []
+    for c in cs:
+        f, res = fold_on_section(P, np.array([c, c]) * 1.02, np.array([-2 * c**3, 3 * c**2]),
+                                 ("L", "b"), (np.array([0.0, 1.0]), np.zeros(2), c),
+                                 v0=np.ones(2))
+        assert f is not None, res.reason
+        out.append(_Kept(P, f.p, f.u, f.v, f.a, f.side, float(f.u[1])))
+    return out
+
+
+def test_cusp_of_refined_points_is_located_where_the_fold_coefficient_vanishes():
+    """The refined points next to the cusp all on one side of it (as when the
+    coarse cusp is not the fine one): the cusp is found by stepping on to the
+    sign change of the fold coefficient; b* to the stopping tolerance (b =
+    3 c^2 is stationary there), a few corrections; no sign change: none."""
+    P = _ToyCusp()
+    points = _toy_points(P, [0.045, 0.04, 0.035, -0.3])
+    cusp, spent = _cusp_by_coefficient(points, 1, Tolerances(rtol=1e-10, utol=1e-10))
+    assert cusp is not None
+    assert abs(cusp["tip_width"]) < CUSP_TOL
+    assert abs(cusp["length"]) < 1e-5
+    assert 0 < spent <= 40
+    assert _cusp_by_coefficient(points[:3], 1, Tolerances()) == (None, 0)
 
 
 def test_mapped_space_gives_the_residual_and_tangent_of_a_built_space():
@@ -129,6 +183,32 @@ def test_refined_curve_agrees_with_the_curve_traced_at_the_fine_mesh():
     kinds = [p["kind"] for p in fine.points]
     n = kinds.count("standout")
     assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    for cross in fine.crossing[:1] + fine.crossing[-1:]:
+        assert cross is not None and abs(cross[1] - cross[0]) == 1
+
+
+@pytest.mark.slow
+def test_an_end_outside_the_fine_basin_is_traced_on_the_fine_mesh():
+    """a/R = 1 from hmax 0.1 to 0.06: the two folds at b = 1 are 0.0013 apart
+    in L/a and 0.012 below the coarse ones, the standout end and its
+    neighbours do not converge on the fine mesh; the end is traced there
+    instead.  The curve is complete, a standout half then a pop-up half,
+    L1* > L0*, one eigenvalue crossing at both ends, and the bistable window
+    and the cusp as the curve traced directly at hmax 0.06 (another mesh of
+    that size: L/a itself to 3e-3, as above)."""
+    fine = trace_fold_curve(1.0, hmax=0.06, coarse_hmax=0.1, fine_points=6, check_inertia=5)
+    direct = trace_fold_curve(1.0, hmax=0.06, check_inertia=0)
+    assert fine.completed and direct.completed, (fine.reason, direct.reason)
+    assert fine.stages[-1]["refilled"] > 0
+    kinds = [p["kind"] for p in fine.points]
+    n = kinds.count("standout")
+    assert 0 < n < len(kinds) and kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    assert fine.standout_length > fine.popup_length
+    assert fine.standout_length == pytest.approx(direct.standout_length, abs=3e-3)
+    assert fine.popup_length == pytest.approx(direct.popup_length, abs=3e-3)
+    window = fine.standout_length - fine.popup_length
+    assert window == pytest.approx(direct.standout_length - direct.popup_length, abs=2e-4)
+    assert fine.cusp["tip_width"] == pytest.approx(direct.cusp["tip_width"], abs=2e-3)
     for cross in fine.crossing[:1] + fine.crossing[-1:]:
         assert cross is not None and abs(cross[1] - cross[0]) == 1
 
