@@ -38,7 +38,8 @@ from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
 
-__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
+__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path",
+           "end_state_verdict"]
 
 PATHS = ("curvature-first", "gravity-first")
 
@@ -236,14 +237,38 @@ def _negatives(problem, solver):
     return stability(problem, solver)[1]
 
 
-def _verdict(problem, solver, w, stats):
-    """``(stable, k)`` of the equilibrium ``w`` from the last factorised
-    tangent (Newton's last iterate but one, within the tolerance of ``w``).
-    If that inertia cannot be trusted (or the back-end does not report it),
-    once more from the tangent at ``w``, and then from a SuperLU
+def end_state_verdict(problem, solver, w, stats):
+    """Stability of the equilibrium ``w``: ``(stable, k)``, the one end-state
+    check of the load paths and of :func:`skfem_sheet.solve.solve`'s
+    coarse-to-fine finish.
+
+    Read first from the last factorised tangent (Newton's last iterate but
+    one, within the tolerance of ``w``).  If that inertia cannot be trusted
+    (``stable`` unknown, e.g. perturbed pivots, or the back-end does not
+    report it) or says "not positive definite" without a negative eigenvalue
+    (``(False, 0)``: a zero pivot of a nearly singular tangent), once more
+    from the tangent at ``w``, and if that still cannot tell, from a SuperLU
     factorisation of it (whose inertia is exact when it pivots on the
     diagonal; only up to ``_SUPERLU_CHECK_DOFS`` unknowns, its fill grows
-    fast); ``solver`` is left factorised at ``w``."""
+    fast).
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    solver : linear-solver back-end
+        Holds the last factorised tangent; it is left factorised at ``w`` if
+        a re-check was needed.
+    w : ndarray
+        The equilibrium.
+    stats : Stats
+        Counts the factorisations of the re-checks (and their time).
+
+    Returns
+    -------
+    (stable, k) : (bool or None, int or None)
+        ``stable`` None if no factorisation can tell; ``k`` the number of
+        negative eigenvalues of the constrained Hessian.
+    """
     verdict = stability(problem, solver)
     if verdict[0] is not None and not (verdict[0] is False and not verdict[1]):
         return verdict
@@ -333,7 +358,7 @@ def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options,
     unstable.  Returns ``(w, stable, k, escaped, iterations, message)``:
     ``escaped`` tells whether ``w`` changed, ``message`` is empty unless the
     end state is still unstable."""
-    stable, k = _verdict(problem, solver, w, stats)
+    stable, k = end_state_verdict(problem, solver, w, stats)
     escaped, iterations = False, 0
     for _ in range(step_options.max_escapes):
         if stable is not False or not k:
@@ -347,7 +372,7 @@ def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options,
                    f"failed: {why}")
             return w, stable, k, escaped, iterations, msg
         w, escaped = res.w, True
-        stable, k = _verdict(problem, solver, w, stats)
+        stable, k = end_state_verdict(problem, solver, w, stats)
     if stable is False and k:
         msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
                f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g} after "
