@@ -2,6 +2,7 @@
 
     python benchmarks/solve_sample_compare.py RUN.json [RUN.json ...] [--base path]
         [--other coarse] [--txt out.txt] [--json out.json]
+    python benchmarks/solve_sample_compare.py OLD.json NEW.json --by-run [--txt ...]
 
 Reads ``benchmarks/solve_sample.py`` outputs run with two variants, e.g.
 ``--variant path='{"start": "path"}' --variant coarse='{"start": "coarse"}'
@@ -12,6 +13,11 @@ gives round-off), the fine-mesh factorisations of each and the coarse path's,
 the walls, where each snapped (the load parameter of its last phase: how far
 a fold moves between the meshes), and whether and why the coarse start fell
 back to the fine path.  Nothing is solved here.
+
+``--by-run``: exactly two runs of one variant each (e.g. the same command
+before and after a change); the first run's solves are the base (named
+``--base``, default ``old``), the second's the other (``--other``, default
+``new``), whatever their variants.
 """
 from __future__ import annotations
 
@@ -191,8 +197,12 @@ def lines_of(rows, s, base, other):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="solve_sample.py --json outputs")
-    ap.add_argument("--base", default="path", help="variant of reference (default path)")
-    ap.add_argument("--other", default="coarse", help="variant compared (default coarse)")
+    ap.add_argument("--base", default=None, help="variant of reference (default path; "
+                    "with --by-run the name of the first run, default old)")
+    ap.add_argument("--other", default=None, help="variant compared (default coarse; "
+                    "with --by-run the name of the second run, default new)")
+    ap.add_argument("--by-run", action="store_true",
+                    help="compare two runs: the first's solves against the second's")
     ap.add_argument("--base-hmax", type=float, default=None,
                     help="take the base variant at this hmax (pairs across meshes)")
     ap.add_argument("--other-hmax", type=float, default=None,
@@ -204,6 +214,14 @@ def main(argv=None):
     for f in args.runs:
         with open(f) as fh:
             docs.append(json.load(fh))
+    if args.by_run:
+        if len(docs) != 2:
+            ap.error("--by-run compares exactly two runs")
+        args.base, args.other = args.base or "old", args.other or "new"
+        for doc, name in zip(docs, (args.base, args.other)):
+            for r in doc["rows"]:
+                r["variant"] = name
+    args.base, args.other = args.base or "path", args.other or "coarse"
     across = args.base_hmax is not None or args.other_hmax is not None
     rows = compare(pairs_of(docs, args.base, args.other, args.base_hmax, args.other_hmax), across)
     if not rows:

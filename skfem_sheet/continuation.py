@@ -38,7 +38,8 @@ from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
 
-__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path"]
+__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path",
+           "end_state_verdict", "elastica_state", "cylinder_state"]
 
 PATHS = ("curvature-first", "gravity-first")
 
@@ -209,6 +210,80 @@ def elastica_state(problem, g):
     return w
 
 
+def _cylinder_displacement(y, z, kappa):
+    """Displacement of the isochoric cylinder of :func:`cylinder_state` at
+    reference points ``(x, y, z)`` (independent of ``x``), shape ``y.shape + (3,)``."""
+    y = np.asarray(y, dtype=float)
+    z = np.asarray(z, dtype=float)
+    s = np.sqrt(1.0 - 2.0 * kappa * z)  # rho / R
+    theta = kappa * y
+    U = np.zeros(y.shape + (3,))
+    U[..., 1] = s * y * np.sinc(theta / np.pi) - y
+    U[..., 2] = (y * np.sin(0.5 * theta) * np.sinc(theta / (2 * np.pi))
+                 + 2.0 * z * np.cos(theta) / (1.0 + s) - z)
+    return U
+
+
+def cylinder_state(problem, kappa, pressure="zero"):
+    """The sheet bent into the clamp's cylinder: a candidate initial state at
+    zero gravity and full clamp curvature ``kappa``.
+
+    Every cross-section ``x = X`` is mapped like the clamp's section
+    (:func:`~skfem_sheet.kernels.clamp_displacement`): the mid-plane onto the
+    arc of radius ``R = 1/kappa`` through the origin, the thickness direction
+    along the arc's normal; but the radius of the fibre at ``Z`` is
+    ``rho = R sqrt(1 - 2 kappa Z)`` (``rho drho = -R dZ``), so the map is
+    isochoric (``J = 1``) where the clamp's ``rho = R - Z`` has
+    ``J = 1 - kappa Z``.  The two differ by ``kappa Z^2 / 2`` (6e-4 at
+    ``a/R = 5``, ``h = 0.03``); the clamped dofs are set to the clamp values
+    exactly.  Written in a form exact as ``kappa -> 0`` (the reference state)::
+
+        U_y = s Y sinc(kappa Y / pi) - Y,
+        U_z = Y sin(kappa Y / 2) sinc(kappa Y / 2 pi) + 2 Z cos(kappa Y) / (1 + s) - Z,
+
+    with ``s = sqrt(1 - 2 kappa Z)``, ``U_x = 0``.
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    kappa : float
+        Clamp curvature a/R (``kappa h < 1``).
+    pressure : {"zero", "plate"}
+        ``"zero"``: the reference pressure; ``"plate"``: the pressure that
+        frees the cylinder's faces (``sigma_rr = 0``: ``p = mu (R^2/rho^2 - 1)``).
+
+    Returns
+    -------
+    ndarray
+        The dof vector.
+
+    Notes
+    -----
+    Measured as the start of a Newton solve at zero gravity against the
+    curvature ramp of ``curvature-first`` (``benchmarks/solve_speed_cylinder.py``,
+    ``benchmarks/results/solve_cylinder_start_hmax0.1.txt``): it does not
+    pay, so the load paths do not use it.  The sheet is no cylinder: away
+    from the clamp the transverse curvature relaxes and the centre line lifts
+    (by 0.3 a at the tip of L/a = 2, a/R = 4), and Newton from the cylinder
+    diverges at a/R >~ 3 and needs 6-12 iterations below, where the ramp
+    takes 8-24 factorisations in all.
+    """
+    if pressure not in ("zero", "plate"):
+        raise ParameterError(f"pressure must be 'zero' or 'plate', got {pressure!r}")
+    h = problem.sheet.thickness
+    kappa = check_range("kappa", kappa, 0, 1.0 / h, hi_open=True,
+                        hint="the inner fibre's radius R - h/2 must stay positive")
+    X = problem.nodes
+    U = _cylinder_displacement(X[:, 1], X[:, 2], kappa)
+    p = np.zeros(problem.n_vertices)
+    if pressure == "plate":
+        Z = X[: problem.n_vertices, 2]
+        p = problem.mu * (1.0 / (1.0 - 2.0 * kappa * Z) - 1.0)
+    w = problem.space.join(U, p)
+    w[problem.clamp_dofs] = problem.clamp_values(kappa)
+    return w
+
+
 def _predict(w, dw, lam, lam_new, prev):
     """Hermite predictor: the tangent ``dw`` at ``lam`` plus the quadratic term
     that makes the curve pass through the previous converged point ``prev``
@@ -236,14 +311,38 @@ def _negatives(problem, solver):
     return stability(problem, solver)[1]
 
 
-def _verdict(problem, solver, w, stats):
-    """``(stable, k)`` of the equilibrium ``w`` from the last factorised
-    tangent (Newton's last iterate but one, within the tolerance of ``w``).
-    If that inertia cannot be trusted (or the back-end does not report it),
-    once more from the tangent at ``w``, and then from a SuperLU
+def end_state_verdict(problem, solver, w, stats):
+    """Stability of the equilibrium ``w``: ``(stable, k)``, the one end-state
+    check of the load paths and of :func:`skfem_sheet.solve.solve`'s
+    coarse-to-fine finish.
+
+    Read first from the last factorised tangent (Newton's last iterate but
+    one, within the tolerance of ``w``).  If that inertia cannot be trusted
+    (``stable`` unknown, e.g. perturbed pivots, or the back-end does not
+    report it) or says "not positive definite" without a negative eigenvalue
+    (``(False, 0)``: a zero pivot of a nearly singular tangent), once more
+    from the tangent at ``w``, and if that still cannot tell, from a SuperLU
     factorisation of it (whose inertia is exact when it pivots on the
     diagonal; only up to ``_SUPERLU_CHECK_DOFS`` unknowns, its fill grows
-    fast); ``solver`` is left factorised at ``w``."""
+    fast).
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    solver : linear-solver back-end
+        Holds the last factorised tangent; it is left factorised at ``w`` if
+        a re-check was needed.
+    w : ndarray
+        The equilibrium.
+    stats : Stats
+        Counts the factorisations of the re-checks (and their time).
+
+    Returns
+    -------
+    (stable, k) : (bool or None, int or None)
+        ``stable`` None if no factorisation can tell; ``k`` the number of
+        negative eigenvalues of the constrained Hessian.
+    """
     verdict = stability(problem, solver)
     if verdict[0] is not None and not (verdict[0] is False and not verdict[1]):
         return verdict
@@ -333,7 +432,7 @@ def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options,
     unstable.  Returns ``(w, stable, k, escaped, iterations, message)``:
     ``escaped`` tells whether ``w`` changed, ``message`` is empty unless the
     end state is still unstable."""
-    stable, k = _verdict(problem, solver, w, stats)
+    stable, k = end_state_verdict(problem, solver, w, stats)
     escaped, iterations = False, 0
     for _ in range(step_options.max_escapes):
         if stable is not False or not k:
@@ -347,7 +446,7 @@ def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options,
                    f"failed: {why}")
             return w, stable, k, escaped, iterations, msg
         w, escaped = res.w, True
-        stable, k = _verdict(problem, solver, w, stats)
+        stable, k = end_state_verdict(problem, solver, w, stats)
     if stable is False and k:
         msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
                f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g} after "

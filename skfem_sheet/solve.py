@@ -9,13 +9,12 @@ from typing import ClassVar
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .analyses.stability import stability
 from .analyses.transfer import transfer
-from .continuation import PATHS, StepOptions, follow_path, load_phases
+from .continuation import PATHS, StepOptions, end_state_verdict, follow_path, load_phases
 from .io import write_result
-from .linalg import LinearSolverError, make_linear_solver
+from .linalg import make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
-from .newton import NewtonOptions, Stats, newton, timed
+from .newton import NewtonOptions, Stats, newton
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .version import __version__
@@ -367,7 +366,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         ``("intermediate", 1.0, iterations)``, its work counted with the
         coarse mesh's), or it moves a node by more than ``0.1 max(1, L)``
         from the coarse state (a jump of branch), or the fine end state is
-        not known to be stable.  Measured against the fine path at hmax 0.06
+        not known to be stable (by the load paths' own end-state check,
+        :func:`~skfem_sheet.continuation.end_state_verdict`).  Measured against the fine path at hmax 0.06
         (``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt``): the
         same end state on every sampled sheet and path (d to round-off after a
         tight solve), but the ``branch`` label may differ where one mesh
@@ -508,22 +508,6 @@ class _Finished:
     reason: str = ""
 
 
-def _fine_verdict(problem, linear, w, stats):
-    """``(stable, k)`` at ``w`` from the last factorised tangent, or from the
-    tangent at ``w`` if that one cannot tell (:func:`~skfem_sheet.analyses.
-    stability.stability`; ``(None, None)`` if neither can)."""
-    verdict = stability(problem, linear)
-    if verdict[0] is not None:
-        return verdict
-    K = timed(stats, "assembly_s", problem.tangent, w)
-    try:
-        timed(stats, "linear_solve_s", linear.factorize, K, w)
-    except LinearSolverError:
-        return None, None
-    stats.factorizations += 1
-    return stability(problem, linear)
-
-
 def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
                     step_options, stats, cstats, report, quadrature_order):
     """The load path on ``cproblem``, finished on ``problem`` at full load.
@@ -579,7 +563,8 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
     if moved > 0.1 * scale:
         return None, (f"fine Newton moved a node by {moved:.3g} from the coarse state "
                       f"(more than {0.1 * scale:.3g}: another branch)")
-    stable, k = _fine_verdict(problem, linear, res.w, stats)
+    # the load paths' end-state check: the same verdict as start="path" would give
+    stable, k = end_state_verdict(problem, linear, res.w, stats)
     if stable is not True:
         what = "unknown" if stable is None else f"unstable ({k} negative eigenvalue(s))"
         return None, f"fine end state {what}"

@@ -115,6 +115,57 @@ def test_a_coarse_state_too_far_for_newton_goes_through_an_intermediate_mesh(mon
     assert via.deflection == pytest.approx(full.deflection, rel=1e-4)
 
 
+def _fake_fine_inertia(monkeypatch, fake):
+    """Make the inertia of the fine mesh (hmax 0.1) read ``fake(solver, calls)``
+    while ``fake`` returns a verdict (the real one once it returns None);
+    patched wherever a verdict is read, so a check of its own in
+    :mod:`skfem_sheet.solve` would see it too."""
+    import skfem_sheet.continuation as continuation
+
+    real, calls = continuation.stability, []
+
+    def inertia(problem, solver):
+        if problem.sheet_mesh.hmax == 0.1:
+            calls.append(getattr(solver, "name", ""))
+            out = fake(solver, calls)
+            if out is not None:
+                return out
+        return real(problem, solver)
+
+    monkeypatch.setattr(continuation, "stability", inertia)
+    monkeypatch.setattr(solve_module, "stability", inertia, raising=False)
+    return calls
+
+
+def test_coarse_finish_rechecks_a_singular_looking_verdict(monkeypatch):
+    # (False, 0): "not positive definite" without a negative eigenvalue, read off
+    # Newton's last tangent; the shared end-state check refactorises at the end
+    # state and reads it again, as the load path does, instead of falling back
+    from skfem_sheet.continuation import end_state_verdict
+
+    assert solve_module.end_state_verdict is end_state_verdict
+    sheet = Sheet(length=0.8, curvature=2.0)
+    calls = _fake_fine_inertia(monkeypatch, lambda s, calls: (False, 0) if len(calls) == 1 else None)
+    r = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
+    assert len(calls) == 2  # the first read, then once more at the end state
+    assert r.coarse_fallback == "" and r.stable is True and r.negative_eigenvalues == 0
+    assert r.factorizations == r.steps[-1][2] + 1
+
+
+def test_coarse_finish_asks_superlu_when_the_solver_cannot_tell(monkeypatch):
+    # the solver's inertia unknown (e.g. perturbed pivots) at the end state and
+    # after refactorising there: the shared check asks a SuperLU factorisation
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.1)
+    calls = _fake_fine_inertia(monkeypatch,
+                               lambda s, calls: None if s.name == "superlu" else (None, None))
+    r = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
+    assert calls[-1] == "superlu" and len(calls) == 3
+    assert r.coarse_fallback == "" and r.stable is True
+    assert r.factorizations == r.steps[-1][2] + 2
+    assert r.deflection == pytest.approx(full.deflection, rel=1e-4)
+
+
 @pytest.mark.parametrize("kwargs, name", [
     (dict(start="fine"), "start"), (dict(start="coarse", coarse_hmax=0.0), "coarse_hmax"),
     (dict(coarse_hmax=-1.0), "coarse_hmax")])
