@@ -28,7 +28,7 @@ from .engine import transient
 from .engine.corrector import Tolerances, correct
 from .engine.protocol import Counting, EngineFailure, Problem
 from .linalg import LinearSolverError
-from .params import check_range
+from .params import ParameterError, check_range
 
 __all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient", "timed"]
 
@@ -48,18 +48,30 @@ class NewtonOptions:
     max_halvings : int
         Step halvings on trial points with an inverted element (or NaN)
         before the iteration fails.
+    linearization : {"exact", "mip"}
+        The matrix of the Newton corrections: the exact tangent (the Hessian
+        of the energy), or from the second iteration on the
+        mixed-integration-point linearisation
+        (:meth:`SheetProblem.tangent` with ``w_ref``, the previous iterate),
+        whose geometric stiffness carries the stress linearised from the
+        previous iterate.  The residual, hence the converged state, is the
+        same; the factorisation left behind is then not the Hessian's.
     """
 
     rtol: float = 1e-4
     utol: float = 1e-6
     max_iterations: int = 8
     max_halvings: int = 6
+    linearization: str = "exact"
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
         check_range("utol", self.utol, 0, 1, lo_open=True)
         check_range("max_iterations", self.max_iterations, 1, 1000)
         check_range("max_halvings", self.max_halvings, 0, 60)
+        if self.linearization not in ("exact", "mip"):
+            raise ParameterError("linearization must be 'exact' or 'mip', got "
+                                 f"{self.linearization!r}")
 
 
 @dataclass
@@ -112,6 +124,8 @@ class _SheetNewton(Problem):
         self.rref = float(np.linalg.norm(problem.gravity_load[self.free]))
         self.last = (None, None)  # (state, residual) of the last admissible point
         self.residuals = []
+        self.previous = None  # the previous linearisation point (MIP reference)
+        self.exact = True  # whether the last factorisation is the exact tangent's
 
     def evaluate(self, w):
         """The residual at ``w`` if ``w`` is admissible (no inverted element,
@@ -140,7 +154,10 @@ class _SheetNewton(Problem):
         rn = float(np.linalg.norm(r[self.free]))
         if not np.isfinite(rn):
             raise EngineFailure("NaN in the residual")
-        K = timed(self.stats, "assembly_s", self.problem.tangent, w)
+        ref = self.previous if self.options.linearization == "mip" else None
+        K = timed(self.stats, "assembly_s", self.problem.tangent, w, ref)
+        self.exact = ref is None
+        self.previous = w
         try:
             timed(self.stats, "linear_solve_s", self.solver.factorize, K, w)
             delta = self.back_solve(r)
@@ -166,7 +183,7 @@ class _SheetNewton(Problem):
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-           max_first_increment=np.inf) -> NewtonResult:
+           max_first_increment=np.inf, reference=None) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
@@ -199,6 +216,10 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     max_first_increment : float
         Reject the attempt if the first correction moves a node further than
         this: a guard against jumping to another branch after a large step.
+    reference : ndarray, optional
+        With ``options.linearization == "mip"``: the state that ``w`` was
+        predicted from (the accepted state of a load step), the reference of
+        the first linearisation (default: the exact tangent at ``w`` first).
 
     Returns
     -------
@@ -208,6 +229,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         "singular tangent", "first correction too large") otherwise.
     """
     sheet = _SheetNewton(problem, g, solver, options, stats)
+    sheet.previous = reference
     w = np.array(w, dtype=float)
     r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1
