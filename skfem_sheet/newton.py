@@ -55,7 +55,14 @@ class NewtonOptions:
         (:meth:`SheetProblem.tangent` with ``w_ref``, the previous iterate),
         whose geometric stiffness carries the stress linearised from the
         previous iterate.  The residual, hence the converged state, is the
-        same; the factorisation left behind is then not the Hessian's.
+        same.  A converged solve always leaves the exact tangent factorised
+        (at the converged state if the last linearisation was a MIP one: one
+        more factorisation, not a Newton iteration), so that inertia checks
+        and tangent predictors see the Hessian.
+    mip_threshold : float
+        With ``"mip"``: the MIP matrix is used only after a step longer than
+        this (largest nodal displacement, units of a); after shorter steps
+        the stress defect is negligible and the exact tangent is used.
     """
 
     rtol: float = 1e-4
@@ -63,6 +70,7 @@ class NewtonOptions:
     max_iterations: int = 8
     max_halvings: int = 6
     linearization: str = "exact"
+    mip_threshold: float = 0.0
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
@@ -72,6 +80,7 @@ class NewtonOptions:
         if self.linearization not in ("exact", "mip"):
             raise ParameterError("linearization must be 'exact' or 'mip', got "
                                  f"{self.linearization!r}")
+        check_range("mip_threshold", self.mip_threshold, 0, 1)
 
 
 @dataclass
@@ -155,6 +164,9 @@ class _SheetNewton(Problem):
         if not np.isfinite(rn):
             raise EngineFailure("NaN in the residual")
         ref = self.previous if self.options.linearization == "mip" else None
+        if ref is not None and not (np.abs(w[: self.problem.nu_dof] - ref[: self.problem.nu_dof]).max()
+                                    > self.options.mip_threshold):
+            ref = None
         K = timed(self.stats, "assembly_s", self.problem.tangent, w, ref)
         self.exact = ref is None
         self.previous = w
@@ -243,6 +255,16 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     start = stats.newton_iterations
     res = correct(Counting(sheet), w, np.array([float(g)]), sheet.linearize, tol,
                   sheet.admissible, converged=sheet.converged)
+    if res.converged and not sheet.exact:
+        # leave the Hessian factorised: the callers read inertia and predict with it
+        K = timed(stats, "assembly_s", problem.tangent, res.u)
+        try:
+            timed(stats, "linear_solve_s", solver.factorize, K, res.u)
+        except LinearSolverError as err:
+            return NewtonResult(res.u, False, stats.newton_iterations - start,
+                                f"singular tangent at the converged state ({err})",
+                                sheet.residuals)
+        stats.factorizations += 1
     corrections = [dn for _, dn in res.history]
     reason = "inverted element" if res.reason.startswith("inadmissible") else res.reason
     return NewtonResult(res.u, res.converged, stats.newton_iterations - start, reason,
@@ -292,7 +314,7 @@ class _SheetTransient(transient.TransientSystem):
 
 def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,
                      shift=100.0, max_iterations=80, radius=0.1, negatives=None,
-                     sigma_floor=1e-2) -> NewtonResult:
+                     sigma_floor=1e-2, max_decrease=64.0) -> NewtonResult:
     """Pseudo-transient continuation to a stable equilibrium at gravity ``g``.
 
     The engine's iteration (:func:`skfem_sheet.engine.transient.pseudo_transient`,
@@ -329,6 +351,10 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
         is not checked.
     sigma_floor : float
         Smallest non-zero shift.
+    max_decrease : float
+        Largest division of the shift after a full step that is much shorter
+        than ``radius`` (the engine's default quartering is 4; 64 lets the
+        shift fall from the 1e5-1e6 reached during a snap in a few steps).
 
     Returns
     -------
@@ -340,7 +366,8 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
     res = transient.pseudo_transient(system, w, utol=options.utol, shift=shift,
                                      max_iterations=max_iterations, radius=radius,
                                      sigma_floor=sigma_floor,
-                                     max_halvings=options.max_halvings)
+                                     max_halvings=options.max_halvings,
+                                     max_decrease=max_decrease)
     reason = {"inadmissible initial state": "inverted element in the initial guess",
               "inadmissible trial states": "inverted element"}.get(res.reason, res.reason)
     return NewtonResult(res.u, res.converged, res.iterations, reason, list(res.residuals),
