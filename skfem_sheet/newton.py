@@ -195,7 +195,7 @@ class _SheetNewton(Problem):
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-           max_first_increment=np.inf, reference=None) -> NewtonResult:
+           max_first_increment=np.inf, reference=None, exact_on_return=True) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
@@ -232,6 +232,13 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         With ``options.linearization == "mip"``: the state that ``w`` was
         predicted from (the accepted state of a load step), the reference of
         the first linearisation (default: the exact tangent at ``w`` first).
+    exact_on_return : bool
+        With ``options.linearization == "mip"``: if the last linearisation of
+        a converged solve was a MIP one, factorise the exact tangent at the
+        converged state before returning (one more factorisation), so that
+        the solver holds the Hessian for an inertia check.  ``False`` where
+        no inertia is read before the next solve (an intermediate load step,
+        whose tangent predictor may use the MIP factorisation).
 
     Returns
     -------
@@ -255,7 +262,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     start = stats.newton_iterations
     res = correct(Counting(sheet), w, np.array([float(g)]), sheet.linearize, tol,
                   sheet.admissible, converged=sheet.converged)
-    if res.converged and not sheet.exact:
+    if res.converged and not sheet.exact and exact_on_return:
         # leave the Hessian factorised: the callers read inertia and predict with it
         K = timed(stats, "assembly_s", problem.tangent, res.u)
         try:
