@@ -48,14 +48,16 @@ class NewtonOptions:
     max_halvings : int
         Step halvings on trial points with an inverted element (or NaN)
         before the iteration fails.
-    linearization : {"exact", "mip"}
-        The matrix of the Newton corrections: the exact tangent (the Hessian
-        of the energy), or from the second iteration on the
-        mixed-integration-point linearisation
-        (:meth:`SheetProblem.tangent` with ``w_ref``, the previous iterate),
+    linearization : {"mip", "exact"}
+        The matrix of the Newton corrections: from the second iteration on,
+        the mixed-integration-point linearisation (default;
+        :meth:`SheetProblem.tangent` with ``w_ref``, the previous iterate),
         whose geometric stiffness carries the stress linearised from the
-        previous iterate.  The residual, hence the converged state, is the
-        same.  A converged solve always leaves the exact tangent factorised
+        previous iterate (Magisano, Leonetti & Garcea, CMAME 2017), or the
+        exact tangent (the Hessian of the energy) at every iteration.  The
+        residual, hence the converged state, is the same; on thin sheets MIP
+        needs about a third fewer iterations (issue 17:
+        ``benchmarks/results/snap_mip_issue17_hmax0.08.txt``).  A converged solve always leaves the exact tangent factorised
         (at the converged state if the last linearisation was a MIP one: one
         more factorisation, not a Newton iteration), so that inertia checks
         and tangent predictors see the Hessian.
@@ -69,7 +71,7 @@ class NewtonOptions:
     utol: float = 1e-6
     max_iterations: int = 8
     max_halvings: int = 6
-    linearization: str = "exact"
+    linearization: str = "mip"
     mip_threshold: float = 0.0
 
     def __post_init__(self):
@@ -199,7 +201,13 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
-    the sheet.  Full Newton steps, halved only where a trial point has an
+    the sheet.  The first correction is made with the exact tangent, the
+    later ones with ``options.linearization`` (by default the
+    mixed-integration-point matrix, whose geometric stiffness carries the
+    stress linearised from the previous iterate: a bending step of a thin
+    sheet no longer leaves the spurious membrane stress of its linearised
+    rotation in the next tangent, which made the corrections alternate
+    large/small).  Full Newton steps, halved only where a trial point has an
     inverted element (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard
     natural-monotonicity) line search was tried and rejected: a bending step
     of a thin sheet leaves a large membrane residual that the *next* full

@@ -98,7 +98,7 @@ def test_the_first_snapping_attempt_retries_the_failed_load():
         calls = []
         branch = ["first"]
 
-        def attempt(lam, lam_new, snapping):
+        def attempt(lam, lam_new, snapping, calls=calls, branch=branch):
             calls.append((lam, lam_new, snapping))
             if snapping:
                 branch[0] = "second"
