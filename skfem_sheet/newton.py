@@ -64,7 +64,9 @@ class NewtonOptions:
     mip_threshold : float
         With ``"mip"``: the MIP matrix is used only after a step longer than
         this (largest nodal displacement, units of a); after shorter steps
-        the stress defect is negligible and the exact tangent is used.
+        the stress defect (second order in the step) is negligible and the
+        exact tangent is used, so a solve that converges quickly ends on an
+        exact factorisation and needs no refactorisation for its inertia.
     """
 
     rtol: float = 1e-4
@@ -72,7 +74,7 @@ class NewtonOptions:
     max_iterations: int = 8
     max_halvings: int = 6
     linearization: str = "mip"
-    mip_threshold: float = 0.0
+    mip_threshold: float = 2e-3
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
