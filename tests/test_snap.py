@@ -30,6 +30,7 @@ import pytest
 from skfem_sheet import Sheet, SolveError, continuation, solve
 from skfem_sheet.analyses import stability as stability_module
 from skfem_sheet.linalg import available_solvers
+from skfem_sheet.newton import NewtonOptions
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -174,3 +175,21 @@ def test_end_state_is_verified_when_the_solver_cannot_report_the_inertia():
     assert amg.stable is True and amg.negative_eigenvalues == 0
     assert direct.stable is True and direct.negative_eigenvalues == 0
     assert amg.deflection == pytest.approx(direct.deflection, rel=1e-6)
+
+
+def test_mip_newton_snaps_to_the_same_state_with_fewer_iterations():
+    """The load path's default MIP linearisation (issue 17) against the exact
+    tangent on the issue's sheet: the same snap, branch and stable end state
+    (to Newton's tolerance), in fewer Newton iterations and factorisations."""
+    sheet, path, hmax, _ = CASES[0].values
+    runs = {lin: solve(Sheet(**sheet), path=path, hmax=hmax,
+                       newton_options=NewtonOptions(linearization=lin))
+            for lin in ("exact", "mip")}
+    exact, mip = runs["exact"], runs["mip"]
+    for r in (exact, mip):
+        assert r.converged and r.stable is True and r.negative_eigenvalues == 0
+        assert len(r.snaps) == 1 and r.branch == "curvature-dominated"
+    assert mip.snaps[0][0] == exact.snaps[0][0] == "curvature"
+    assert mip.deflection == pytest.approx(exact.deflection, abs=1e-6)
+    assert mip.newton_iterations < 0.8 * exact.newton_iterations
+    assert mip.factorizations < exact.factorizations
