@@ -47,10 +47,11 @@ print(json.dumps(dict(d=r.deflection, iterations=r.newton_iterations, converged=
 OTHER = {"gravity-first": "curvature-first", "curvature-first": "gravity-first"}
 
 # sheet, snapping path, hmax, bound on the Newton iterations of the snapping path
-# (issue 17: the first case took 164-392 with the residual-ratio pseudo-transient)
+# (issue 17: the first case took 164-392 with the residual-ratio pseudo-transient, 131 with
+# exact Newton on the one engine, 75 with the MIP linearisation: its acceptance is <= 80)
 CASES = [
     pytest.param(dict(length=1.299, tip_width=0.633, curvature=5.112, thickness=0.02,
-                      modulus=400.0), "gravity-first", 0.08, 150, id="issue17-sheet"),
+                      modulus=400.0), "gravity-first", 0.08, 80, id="issue17-sheet"),
     pytest.param(dict(length=1.0, tip_width=0.8, curvature=5.5, thickness=0.02, modulus=400.0),
                  "gravity-first", 0.08, 130, id="short-thin-popup"),
     pytest.param(dict(length=1.3, tip_width=1.0, curvature=6.0), "gravity-first", 0.1, 120,
