@@ -174,3 +174,18 @@ def test_end_state_is_verified_when_the_solver_cannot_report_the_inertia():
     assert amg.stable is True and amg.negative_eigenvalues == 0
     assert direct.stable is True and direct.negative_eigenvalues == 0
     assert amg.deflection == pytest.approx(direct.deflection, rel=1e-6)
+
+
+def test_a_fold_crossed_in_the_gravity_ramp_is_recorded_and_labels_the_branch():
+    """A long rectangle, curvature first: it stands out at zero gravity and
+    must fall (a fold in gravity) as gravity is ramped.  The path must record
+    that snap and label the end state gravity-dominated.  A faster Newton that
+    converged across the fold inside one load step (the MIP linearisation
+    tried in session 7) reached the same state with no snap recorded and the
+    label "curvature-dominated" (benchmarks/results/snap_mip_stress_silent_folds.txt)."""
+    r = solve(Sheet(length=3.0, tip_width=1.0, curvature=2.5), path="curvature-first",
+              hmax=0.1, on_failure="return")
+    assert r.converged and r.stable is True
+    assert r.deflection > 2.0  # hanging: the tip far below the clamp
+    assert len(r.snaps) >= 1 and r.snaps[0][0] == "gravity"
+    assert r.branch == "gravity-dominated"
