@@ -44,6 +44,7 @@ except ImportError:  # run from a checkout without installing: use the repositor
 
 from skfem_sheet import Sheet, solve  # noqa: E402  (after the path fix)
 from skfem_sheet.continuation import PATHS  # noqa: E402
+from skfem_sheet.studies.runner import read_journal  # noqa: E402
 
 __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "local_orders",
            "nested_family",
@@ -737,17 +738,10 @@ def solve_or_crash(p, path, hmax, fields):
 
 
 def read_jsonl(out):
-    """``{key: record}`` of a JSON-lines journal (a line cut by a kill is skipped)."""
-    done = {}
-    if os.path.exists(out):
-        with open(out) as f:
-            for line in f:
-                try:
-                    rec = json.loads(line)
-                except json.JSONDecodeError:  # a line cut by a kill: recompute it
-                    continue
-                done[rec["key"]] = rec
-    return done
+    """``{key: record}`` of a JSON-lines journal (a line cut by a kill is
+    skipped and recomputed): the package's journal reader
+    (:func:`skfem_sheet.studies.runner.read_journal`) on the stored keys."""
+    return read_journal(out, key_of=lambda rec: rec["key"], required=("key",))
 
 
 def add_shard_option(ap):
