@@ -459,7 +459,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 newton_options: NewtonOptions = NewtonOptions(),
                 step_options: StepOptions = StepOptions(),
                 stats: Stats | None = None, w0=None, progress=None,
-                on_step=None) -> PathOutcome:
+                on_step=None, resume: tuple | None = None) -> PathOutcome:
     """Run a load path from the reference state (or ``w0``) to full load.
 
     Parameters
@@ -472,6 +472,14 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     progress : callable(fraction_of_path) or None
     on_step : callable(problem, w, kappa, g) or None
         Called after each accepted step with its state and load.
+    w0 : ndarray or None
+        Start state (default: the reference state, zero).
+    resume : (phase, lam) or None
+        Resume the path part-way: ``w0`` is an equilibrium at the load
+        fraction ``lam`` of the phase named ``phase`` (``"curvature"`` or
+        ``"gravity"``, see :func:`load_phases`), e.g. a state of this path
+        on another mesh, transferred; the earlier phases are skipped and
+        ``steps``/``snaps`` hold only what follows.
 
     Returns
     -------
@@ -499,11 +507,24 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     phases = load_phases(path, kappa)
     w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
     out = PathOutcome(w=w)
+    first, lam0 = 0, 0.0
+    if resume is not None:
+        names = [name for name, _ in phases]
+        if w0 is None:
+            raise ParameterError("resume needs w0, the state at the resumed load")
+        if not (isinstance(resume, tuple) and len(resume) == 2 and resume[0] in names):
+            raise ParameterError(f"resume must be (phase, lam) with phase one of "
+                                 f"{', '.join(names)}, got {resume!r}")
+        first = names.index(resume[0])
+        lam0 = check_range("resume lam", float(resume[1]), 0, 1)
+        out.kappa, out.g = phases[first][1](lam0)
     have_factor = False
     scale = max(1.0, problem.sheet.length)  # displacements grow with the length
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol)
     for iphase, (name, load) in enumerate(phases):
-        lam = 0.0
+        if iphase < first:
+            continue
+        lam = lam0 if iphase == first else 0.0
         prev = None  # (lam, w) of the previous converged step of this phase
         last_phase = iphase == len(phases) - 1
         if (name == "gravity" and load(0.0)[0] == 0.0 and step_options.elastica_start

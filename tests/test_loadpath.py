@@ -87,3 +87,37 @@ def test_the_sheet_newton_and_load_path_run_on_the_engine(monkeypatch):
     res = newton.pseudo_transient(problem, w0, 1.0, make_linear_solver("auto"),
                                   newton.NewtonOptions(rtol=1.0, utol=1e-3), newton.Stats())
     assert res.converged and calls["transient"] == 1
+
+
+def test_a_path_resumed_from_one_of_its_own_states_ends_on_the_same_equilibrium():
+    """``follow_path(resume=(phase, lam), w0=...)`` starts part-way: from the
+    state the full path accepted in its second phase, it reaches the same end
+    state (to the Newton tolerance), with only the remaining steps recorded."""
+    problem = build_problem(Sheet(length=0.8, tip_width=0.8, curvature=2.0), 0.2, None, 2,
+                            half=True)
+    states = []
+    full = follow_path(problem, "curvature-first", 2.0, make_linear_solver("auto"),
+                       on_step=lambda pr, w, k, g: states.append(w.copy()))
+    assert full.converged and full.stable is True
+    i = next(j for j, s in enumerate(full.steps) if s[0] == "gravity" and s[1] < 1.0)
+    phase, lam = full.steps[i][:2]
+    part = follow_path(problem, "curvature-first", 2.0, make_linear_solver("auto"),
+                       w0=states[i], resume=(phase, lam))
+    assert part.converged and part.stable is True
+    assert all(s[0] == "gravity" and s[1] > lam for s in part.steps)
+    assert (part.kappa, part.g) == (full.kappa, full.g) == (2.0, 1.0)
+    nu = problem.nu_dof
+    assert np.abs(part.w[:nu] - full.w[:nu]).max() < 1e-5
+
+
+def test_resume_needs_a_known_phase_and_a_start_state():
+    problem = build_problem(Sheet(length=0.6), 0.2, None, 2, half=True)
+    solver = make_linear_solver("auto")
+    with pytest.raises(ParameterError, match="resume needs w0"):
+        follow_path(problem, "curvature-first", 1.0, solver, resume=("gravity", 0.5))
+    with pytest.raises(ParameterError, match="resume must be"):
+        follow_path(problem, "curvature-first", 1.0, solver, w0=np.zeros(problem.ndof),
+                    resume=("bending", 0.5))
+    with pytest.raises(ParameterError, match="resume lam"):
+        follow_path(problem, "curvature-first", 1.0, solver, w0=np.zeros(problem.ndof),
+                    resume=("gravity", 1.5))
