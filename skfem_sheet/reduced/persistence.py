@@ -148,15 +148,36 @@ def _rhs_general(sigma, z, sheet, Lp):
     return [v, (f / y - 3.0 * P**2 * dP * v) / P**3]
 
 
-def _lhat_general(sheet, Lp, rtol=1e-11, n_profile=201):
-    """:func:`lhat_of_delta` for the profile P(S) = p(L_p S) of a planform sheet."""
-    P1 = float(_profile(sheet, Lp))
-    dP0 = -Lp * float(_profile_slope(sheet, Lp))
+def _integrate_backward(rhs, args, P1, dP0, rtol, n_profile):
+    """Integrate the backward ODE ``rhs`` in sigma = 1 - S from the tip: ``(Lhat, S, C)``.
+
+    Shared by :func:`lhat_of_delta` and :func:`_lhat_general`.  Near the tip
+    (sigma < ``_SIGMA0 P1``) the regular solution is its series
+    y = a1 sigma + a2 sigma^2, a1 = P1^-2, a2 = -1.1 dP0 / P1^3; beyond, ``rhs``
+    is integrated to sigma = 1 (DOP853) and normalised so that C(0) = 1, with
+    Lhat = 1 / y(1).
+
+    Parameters
+    ----------
+    rhs : callable
+        ``rhs(sigma, z, *args)`` for z = (y, y_sigma).
+    args : tuple
+        Extra arguments of ``rhs``.
+    P1 : float
+        Profile at the tip, P(1).
+    dP0 : float
+        dP/dsigma at the tip sigma = 0, i.e. -dP/dS at S = 1 (Dhat for the
+        linear profile).
+    rtol : float
+        Relative tolerance of the integration.
+    n_profile : int
+        Number of points of the returned profile C(S) on [0, 1].
+    """
     a1, a2 = P1**-2, -1.1 * dP0 / P1**3
     s0 = _SIGMA0 * P1
     z0 = [a1 * s0 + a2 * s0**2, a1 + 2.0 * a2 * s0]
     sig = np.linspace(0.0, 1.0, n_profile)
-    sol = solve_ivp(_rhs_general, (s0, 1.0), z0, args=(sheet, Lp), method="DOP853",
+    sol = solve_ivp(rhs, (s0, 1.0), z0, args=args, method="DOP853",
                     rtol=rtol, atol=1e-14, dense_output=True)
     if not sol.success:  # pragma: no cover - the regular solution is smooth
         raise RuntimeError(f"persistence ODE failed: {sol.message}")
@@ -165,6 +186,13 @@ def _lhat_general(sheet, Lp, rtol=1e-11, n_profile=201):
     y[inner] = sol.sol(sig[inner])[0]
     y0 = y[-1]
     return float(1.0 / y0), 1.0 - sig[::-1], (y[::-1] / y0) ** 2
+
+
+def _lhat_general(sheet, Lp, rtol=1e-11, n_profile=201):
+    """:func:`lhat_of_delta` for the profile P(S) = p(L_p S) of a planform sheet."""
+    P1 = float(_profile(sheet, Lp))
+    dP0 = -Lp * float(_profile_slope(sheet, Lp))
+    return _integrate_backward(_rhs_general, (sheet, Lp), P1, dP0, rtol, n_profile)
 
 
 def _persistence_planform(sheet, alpha, asym, rtol, n_profile) -> PersistenceResult:
@@ -230,22 +258,7 @@ def lhat_of_delta(delta: float, rtol: float = 1e-11, n_profile: int = 201):
     delta = float(delta)
     if not 0.0 <= delta <= 1.0 - _MIN_P1:
         raise ParameterError(f"delta must be in [0, {1 - _MIN_P1:g}], got {delta!r}")
-    P1 = 1.0 - delta
-    a1, a2 = P1**-2, -1.1 * delta / P1**3
-    s0 = _SIGMA0 * P1
-    z0 = [a1 * s0 + a2 * s0**2, a1 + 2.0 * a2 * s0]
-    sig = np.linspace(0.0, 1.0, n_profile)
-    sol = solve_ivp(_rhs, (s0, 1.0), z0, args=(delta,), method="DOP853",
-                    rtol=rtol, atol=1e-14, dense_output=True)
-    if not sol.success:  # pragma: no cover - the regular solution is smooth
-        raise RuntimeError(f"persistence ODE failed: {sol.message}")
-    y = np.where(sig < s0, a1 * sig + a2 * sig**2, 0.0)
-    inner = sig >= s0
-    y[inner] = sol.sol(sig[inner])[0]
-    y0 = y[-1]
-    S = 1.0 - sig[::-1]
-    C = (y[::-1] / y0) ** 2
-    return float(1.0 / y0), S, C
+    return _integrate_backward(_rhs, (delta,), 1.0 - delta, delta, rtol, n_profile)
 
 
 def persistence_length(sheet, rtol: float = 1e-11, n_profile: int = 201) -> PersistenceResult:
