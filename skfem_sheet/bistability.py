@@ -427,8 +427,6 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     >>> b.fold is None, len(b.points)
     (True, 3)
     """
-    _check_common(sheet, hmax, step, tol)
-    stop = check_range("stop", stop, 0.05, 20.0)
     return _follow("L", sheet, stop, path=path, hmax=hmax, layers=layers,
                    solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
                    progress=progress, on_point=on_point)
@@ -454,11 +452,13 @@ def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", 
     >>> b.fold is None, len(b.points)
     (True, 3)
     """
-    _check_common(sheet, hmax, step, tol)
-    stop = check_range("stop", stop, 0.0, 2 * np.pi, hi_open=True)
     return _follow("a/R", sheet, stop, path=path, hmax=hmax,
                    layers=layers, solver=solver, symmetric=symmetric, step=step, tol=tol,
                    jump=jump, progress=progress, on_point=on_point)
+
+
+#: Allowed range of the end ``stop`` of a continuation in L and in a/R (:func:`_follow`).
+_STOP_RANGE = {"L": dict(lo=0.05, hi=20.0), "a/R": dict(lo=0.0, hi=2 * np.pi, hi_open=True)}
 
 
 def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
@@ -469,7 +469,10 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
     factorisation, the sheet's Newton stopping rule, a step failing when
     Newton fails, the equilibrium is unstable or the deflection jumps,
     halved down to the bracket ``2 tol``; in L the mesh is remeshed (and the
-    state transferred) before a step beyond the stretch limit."""
+    state transferred) before a step beyond the stretch limit.  The arguments
+    are checked here (``stop`` against :data:`_STOP_RANGE` of ``name``)."""
+    _check_common(sheet, hmax, step, tol)
+    stop = check_range("stop", stop, **_STOP_RANGE[name])
     t0 = time.perf_counter()
     stats = Stats()
     track = _Stretched(sheet, hmax, layers, solver, symmetric)
