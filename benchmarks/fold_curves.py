@@ -50,6 +50,7 @@ from skfem_sheet.figures.data import fold_curve_points, fold_curve_table
 from skfem_sheet.foldcurve import trace_fold_curve
 from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.studies.foldmap import COARSE_HMAX, FINE_POINTS
+from skfem_sheet.studies.runner import journal_path, read_journal
 
 from _common import machine_info, run_isolated
 
@@ -118,19 +119,21 @@ def pointwise_case(curvature, hmax):
 
 
 def _journalled(quality, data_dir):
-    """The curves of the quality already in the table's journal (nothing computed)."""
-    path = os.path.join(data_dir, f"foldcurves-{quality}.csv.journal.jsonl")
+    """The curves of the quality already in the table's journal (nothing computed).
+
+    The journal the fold-curve table keeps (:func:`skfem_sheet.studies.foldmap.fold_curves`:
+    one line per traced curve, its point's fields and its ``key``), read by the
+    package's reader on the stored keys; a curve is one of the quality's
+    (``second``, ``curvature``), the last line of each counting.  Returns the
+    records and the sorted (second, curvature) pairs not yet journalled.
+    """
+    journal = journal_path(os.path.join(data_dir, f"foldcurves-{quality}.csv"))
     want = {(p["second"], p["curvature"]) for p in fold_curve_points(quality)}
     recs = {}
-    if os.path.exists(path):
-        with open(path) as fh:
-            for line in fh:
-                try:
-                    r = json.loads(line)
-                except ValueError:
-                    continue  # a line cut short
-                if (r.get("second"), r.get("curvature")) in want:
-                    recs[(r["second"], r["curvature"])] = r
+    for r in read_journal(journal, key_of=lambda rec: rec["key"],
+                          required=("key", "second", "curvature")).values():
+        if (r["second"], r["curvature"]) in want:
+            recs[(r["second"], r["curvature"])] = r
     return pd.DataFrame(list(recs.values())), sorted(want - set(recs))
 
 

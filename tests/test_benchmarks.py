@@ -267,7 +267,8 @@ def test_local_orders_mark_non_converging_triples():
     assert bench.local_orders(h[:2], [1.0, 1.1]) == []
 
 
-def _convergence_main(script="convergence.py"):
+def _bench_module(script):
+    """A script of benchmarks/ as a module (benchmarks/ on the path for ``_common``)."""
     import sys
 
     bench_dir = os.path.dirname(_PATH)
@@ -277,7 +278,11 @@ def _convergence_main(script="convergence.py"):
                                                   os.path.join(bench_dir, script))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return mod.main
+    return mod
+
+
+def _convergence_main(script="convergence.py"):
+    return _bench_module(script).main
 
 
 def test_convergence_dry_run_lists_the_nested_family(capsys):
@@ -366,3 +371,51 @@ def test_convergence_fit_refuses_too_few_meshes(tmp_path):
     one = _family_file(tmp_path / "a.json", 0.16, lambda h: 1.0 + h ** 2)
     with pytest.raises(SystemExit, match="five or more"):
         main([one])
+
+
+# ---------------------------------------------------------------------------
+# The fold-curve map read from its journal only (benchmarks/fold_curves.py --partial)
+# ---------------------------------------------------------------------------
+def test_fold_curves_partial_reads_the_tables_journal(tmp_path, monkeypatch):
+    """``_journalled`` finds the curves the fold-curve table journalled (written
+    by :func:`skfem_sheet.studies.foldmap.fold_curves`, traces faked): the last
+    line of a curve counts, a line cut short is skipped, the rest is missing."""
+    import json
+    from types import SimpleNamespace
+
+    from skfem_sheet.figures.data import fold_curve_points
+    from skfem_sheet.studies import foldmap as fm
+
+    def fake(second):
+        def trace(*args, **kw):
+            return SimpleNamespace(
+                second=second, cusp=None, standout_length=1.4, popup_length=1.2,
+                cusp_located="", bistable=True, completed=True,
+                points=({second: 1.0, "length": 1.4, "kind": "standout"},),
+                factorizations=3, factorizations_per_point=3.0, remeshes=0, reason="",
+                wall_time_s=0.1)
+        return trace
+
+    monkeypatch.setattr(fm, "trace_fold_curve", fake("tip_width"))
+    monkeypatch.setattr(fm, "trace_curvature_fold_curve", fake("curvature"))
+    pts = fold_curve_points("quick")
+    done = [pts[0], pts[3], pts[-1]]          # two curves in (L, b/a), the rectangle's
+    table = tmp_path / "foldcurves-quick.csv"
+    fm.fold_curves(done, table=table, workers=1, progress=False)
+    journal = str(table) + ".journal.jsonl"
+    with open(journal) as f:
+        lines = [json.loads(ln) for ln in f]
+    again = dict(lines[0], standout_length=1.5)   # a later line of the same curve wins
+    with open(journal, "a") as f:
+        f.write(json.dumps(again) + "\n" + json.dumps(lines[1])[:40])   # and a cut line
+
+    fc = _bench_module("fold_curves.py")
+    df, missing = fc._journalled("quick", str(tmp_path))
+    got = {(r.second, r.curvature): r for r in df.itertuples()}
+    pair = {(p["second"], p["curvature"]) for p in done}
+    assert set(got) == pair and len(df) == 3
+    assert missing == sorted({(p["second"], p["curvature"]) for p in pts} - pair)
+    assert got[(again["second"], again["curvature"])].standout_length == 1.5
+    assert {r.key for r in df.itertuples()} == {ln["key"] for ln in lines}
+    assert fc._journalled("quick", str(tmp_path / "none"))[1] == sorted(
+        (p["second"], p["curvature"]) for p in pts)
