@@ -565,6 +565,13 @@ class FoldCurve:
     bistable: bool = True
     #: Fresh meshes made on the way (state transferred each time).
     remeshes: int = 0
+    #: ``(L_m, b_m)`` at which each mesh of the trace was made, in order (the
+    #: first mesh, then one per remesh; coarse to fine: the coarse trace's,
+    #: then the finest level's).  At a coarse mesh the folds depend on where
+    #: the mesh was made (hmax 0.2, a/R 2.5: L0*(1) from 1.218 to 1.270 over
+    #: meshes made at L_m from 0.95 to 1.37), so a comparison of two traces
+    #: is made on the mesh they share (tests/test_foldcurve.py).
+    meshes: tuple = ()
     #: How the cusp was found: "fold coefficient" (its sign change, located
     #: by regula falsi), "turning point" (where the second parameter turns
     #: back, if the sign change was not seen), for a curve refined coarse to
@@ -793,11 +800,14 @@ class _Maker:
         self.args = (curvature, hmax)
         self.kw = dict(thickness=thickness, modulus=modulus, layers=layers, solver=solver)
         self.count = 0
+        self.made = []  # (L_m, b_m) of each mesh made
 
     def __call__(self, mesh_length, mesh_tip_width):
         self.count += 1
-        return SheetFoldProblem(*self.args, mesh_length=mesh_length,
-                                mesh_tip_width=min(1.0, mesh_tip_width), **self.kw)
+        P = SheetFoldProblem(*self.args, mesh_length=mesh_length,
+                             mesh_tip_width=min(1.0, mesh_tip_width), **self.kw)
+        self.made.append(P.mesh_parameters)
+        return P
 
     def remesh(self, P, u, p, v=None):
         """A problem on a fresh mesh at ``p``'s (L, b), with ``u`` (and ``v``) on it."""
@@ -934,7 +944,7 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
                              f"not bistable at {where}: the curvature-dominated branch reached "
                              f"L/a = {hi:g} from {start_length:g} without a fold",
                              second=key, tip_width=tip_width, bistable=False,
-                             remeshes=make.count - 1)
+                             remeshes=make.count - 1, meshes=tuple(make.made))
         raise ParameterError(f"no standout fold found in L from {start_length:g} to {hi:g} at "
                              f"{where}: {why}")
     bar = _Progress(progress, j, name)
@@ -1016,7 +1026,7 @@ def _trace(curvature, tip_width, j, bounds_j, *, hmax, start_length, length_rang
                      time.perf_counter() - t0, hmax, completed, reason,
                      tuple(pt.negative_eigenvalues for pt in points),
                      tuple(pt.crossing for pt in points), curve, key, tip_width,
-                     remeshes=make.count - 1, cusp_located=located)
+                     remeshes=make.count - 1, meshes=tuple(make.made), cusp_located=located)
 
 
 
@@ -1505,6 +1515,7 @@ def _run(curvature, tip_width, j, bounds_j, *, hmax, coarse_hmax, fine_points, s
                      time.perf_counter() - t0, hmax, completed, reason,
                      tuple(q["negative"] for q in pts), tuple(q["crossing"] for q in pts),
                      None, key, tip_width, remeshes=coarse.remeshes + len(fine.meshes),
+                     meshes=coarse.meshes + tuple(P.mesh_parameters for P in fine.meshes),
                      cusp_located=located, cusp_factorizations=cusp_cost,
                      coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
                      coarse_factorizations=coarse.factorizations, stages=tuple(stages))
