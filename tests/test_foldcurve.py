@@ -208,20 +208,27 @@ def test_memory_does_not_grow_with_the_number_of_points(coarse, coarse_fold):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason=(
-    "known, issue 19 note of session 6: the (L, a/R) route now completes but ends on a mesh "
-    "remeshed and stretched x1.35, and its L0* (1.2112) differs from the (L, b) curve's "
-    "(1.2062) by about the discretisation error of that stretch, not by 1e-5; the comparison "
-    "must be made on one mesh (to do)"))
 def test_two_routes_around_the_cusp_reach_the_same_popup_fold():
     """From the standout fold at (b, a/R) = (1, 2.5), the fold curve in (L, a/R)
     goes round the cusp in the curvature and comes back to a/R = 2.5 as the
-    pop-up fold, the one the curve in (L, b) reaches round the cusp in b."""
+    pop-up fold, the one the curve in (L, b) reaches round the cusp in b.
+
+    Both on one mesh, made at L = 1.05: it covers L/a in [1.05/1.35, 1.05 x
+    1.35] = [0.778, 1.418] without a remesh, and the (L, a/R) curve spans
+    0.815 (its cusp) to 1.352 (L1*) at hmax 0.1.  On the default meshes the
+    (L, a/R) route remeshes near its cusp (L about 0.96) and ends on that mesh
+    stretched x1.26, whose L0* (1.2112) differs from the (L, b) route's on the
+    mesh made at 1.296 (1.2062) by the stretch's discretisation error
+    (measured, hmax 0.1: L0* 1.2111 on the mesh made at 0.95, 1.2063 at 1.2062,
+    1.2062 at 1.2825; benchmarks/results/fold_curve_remesh_hmax0.1.txt).
+    Measured on the mesh made at 1.05: L0* 1.20845406656 by both routes."""
     from skfem_sheet.foldcurve import trace_curvature_fold_curve
 
-    by_curvature = trace_curvature_fold_curve(1.0, 2.5, hmax=0.1, check_inertia=0)
-    by_width = trace_fold_curve(2.5, hmax=0.1, check_inertia=0)
+    by_curvature = trace_curvature_fold_curve(1.0, 2.5, hmax=0.1, check_inertia=0,
+                                              mesh_length=1.05)
+    by_width = trace_fold_curve(2.5, hmax=0.1, check_inertia=0, mesh_length=1.05)
     assert by_curvature.completed and by_width.completed
+    assert by_curvature.meshes == by_width.meshes == ((1.05, 1.0),)  # one mesh, no remesh
     assert by_curvature.popup_length == pytest.approx(by_width.popup_length, abs=1e-5)
     assert by_curvature.standout_length == pytest.approx(by_width.standout_length, abs=1e-9)
     cusp = by_curvature.cusp
@@ -308,6 +315,38 @@ def test_remeshed_curve_agrees_with_the_curve_on_its_mesh():
     assert re.factorizations_per_point <= 5
     rec = re.record()
     assert rec["remeshes"] == re.remeshes and rec["completed"] and rec["bistable"]
+
+
+@pytest.mark.slow
+def test_a_remesh_along_the_curve_keeps_the_folds_of_the_new_mesh(monkeypatch):
+    """With the squeeze limit raised to 0.8 the trace remeshes on the curve
+    itself (at b = 0.8, a mesh made for the trapezoid there), carrying the
+    fold point and its null vector across, and returns to b = 1 on that
+    mesh: its L0* is the pop-up fold located directly on the same mesh
+    (gravity-first at L 1.3, natural continuation down in L).  Measured at
+    hmax 0.2: 1.23170827 by the trace, 1.23170823 directly (and 1.2183 on
+    the default mesh made at 1.296: the mesh difference, see
+    test_remeshed_curve_agrees_with_the_curve_on_its_mesh)."""
+    import skfem_sheet.foldcurve as fc
+
+    monkeypatch.setattr(fc, "REMESH_SQUEEZE", 0.8)
+    c = trace_fold_curve(2.5, hmax=COARSE, check_inertia=0)
+    assert c.completed and c.remeshes == 1 and len(c.meshes) == 2
+    L_m, b_m = c.meshes[-1]
+    assert b_m == pytest.approx(0.8, abs=1e-6)
+    b = np.array([p["tip_width"] for p in c.points])
+    kinds = [p["kind"] for p in c.points]
+    n = kinds.count("standout")
+    assert kinds == ["standout"] * n + ["popup"] * (len(kinds) - n)
+    # the point where it remeshed is on the curve once
+    assert np.count_nonzero(np.abs(b - b_m) < 1e-9) == 1
+    P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=L_m, mesh_tip_width=b_m)
+    p = np.array([1.3, 1.0, 2.5])
+    u, _ = P.solve_state(p, "gravity-first")
+    down = natural(P, u, p, "L", 1.0, step=0.02, min_step=1e-4, tol=TOL, jump=0.1,
+                   keep_states=False)
+    assert down.fold is not None and down.fold.side == 1, down.reason
+    assert c.popup_length == pytest.approx(down.fold.value, abs=1e-6)
 
 
 @pytest.mark.slow
