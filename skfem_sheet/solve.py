@@ -495,6 +495,16 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     cstats = Stats()
     fallback = ""
     out = None
+    # the series' frames are passed on one step late, so that the last one
+    # can be the polished end state (the Result's)
+    pending = []
+
+    def on_step(pr, w_step, k, g):
+        if pending:
+            series.on_step(*pending.pop())
+        pending.append((pr, np.array(w_step, dtype=float), k, g))
+
+    hook = None if series is None else on_step
     try:
         if start == "coarse":
             if coarse_hmax <= hmax:
@@ -505,14 +515,14 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                 out, fallback = _coarse_to_fine(
                     problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
                     step_options, stats, cstats, report, quadrature_order,
-                    None if series is None else series.on_step)
+                    hook)
                 if out is not None and series is not None and not out.resume:
-                    series.on_step(problem, out.w, out.kappa, out.g)
+                    on_step(problem, out.w, out.kappa, out.g)
         if out is None:
             out = follow_path(problem, path, sheet.curvature, linear,
                               newton_options=newton_options, step_options=step_options,
                               stats=stats, progress=report,
-                              on_step=None if series is None else series.on_step)
+                              on_step=hook)
     finally:
         if bar is not None:
             bar.close()
@@ -520,6 +530,11 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     if out.converged:
         # both starts: the same tight end state (d to FINAL_UTOL, not utol)
         w, n_polish = _polish(problem, w, out.g, linear, stats)
+    if pending:
+        pr, w_last, k, g = pending.pop()
+        if out.converged and pr is problem and (k, g) == (out.kappa, out.g):
+            w_last = w  # the end state, as the Result holds it
+        series.on_step(pr, w_last, k, g)
     # the load path verified its end state (the inertia of its tangent)
     stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
     result = Result(
@@ -722,11 +737,16 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     where = f"{why}; resumed at {phase} {lam:.3g}"
     if not res.converged:
         return None, f"{where}: fine Newton from the coarse state failed: {res.reason}"
+    frames = []  # passed on only if the resumed path succeeds (else the whole path runs)
     rest = follow_path(problem, path, kappa, linear, newton_options=newton_options,
                        step_options=step_options, stats=stats, w0=res.w, resume=(phase, lam),
-                       progress=lambda f: report(0.9 + 0.1 * f), on_step=on_step)
+                       progress=lambda f: report(0.9 + 0.1 * f),
+                       on_step=None if on_step is None else
+                       lambda *frame: frames.append(frame))
     if not rest.converged:
         return None, f"{where}: the resumed fine path failed: {rest.reason}"
+    for frame in frames:
+        on_step(*frame)
     order = [name for name, _ in load_phases(path, kappa)]
     before = tuple(x for x in coarse.snaps
                    if (order.index(x[0]), x[1]) <= (order.index(phase), lam))
