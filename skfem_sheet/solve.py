@@ -20,7 +20,7 @@ from .problem import SheetProblem
 from .version import __version__
 
 __all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS", "STARTS",
-           "COARSE_HMAX", "LATE_SNAP", "RESUME_MARGIN", "FINISH_ITERATIONS", "FINAL_UTOL",
+           "COARSE_HMAX", "LATE_SNAP", "RESUME_MARGIN", "FOLD_SHIFT", "FINISH_ITERATIONS", "FINAL_UTOL",
            "POLISH_ITERATIONS"]
 
 #: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
@@ -47,6 +47,13 @@ LATE_SNAP = 0.25
 #: ``benchmarks/solve_sample.py``, the fine fold later), so the fine path
 #: starts on the branch the coarse path was following, before its fold.
 RESUME_MARGIN = 0.05
+
+#: A resumed fine path whose branch ends (steps cut below
+#: ``StepOptions.snap_step``) within this of the late coarse snap (fraction of
+#: the phase) ends at the coarse fold: the sheet snaps there on the fine mesh
+#: too, onto the branch the coarse path snapped to (its end state is finished
+#: on the fine mesh instead of a snap settle there).
+FOLD_SHIFT = 0.1
 
 #: Newton iterations allowed to finish a transferred coarse state on the fine
 #: mesh (at least ``NewtonOptions.max_iterations``); beyond them the state is
@@ -516,7 +523,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                     problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
                     step_options, stats, cstats, report, quadrature_order,
                     hook)
-                if out is not None and series is not None and not out.resume:
+                if out is not None and series is not None and not out.own_frames:
                     on_step(problem, out.w, out.kappa, out.g)
         if out is None:
             out = follow_path(problem, path, sheet.curvature, linear,
@@ -578,6 +585,7 @@ class _Finished:
     converged: bool = True
     reason: str = ""
     resume: str = ""
+    own_frames: bool = False  # the end state was passed to on_step already
 
 
 def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None):
@@ -668,10 +676,17 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
         return None, f"coarse path failed: {coarse.reason}"
     scale = max(1.0, problem.sheet.length)
     resume = _resume_load(coarse, states, path, kappa)
+    steps, snaps, rejected, note = (tuple(coarse.steps), tuple(coarse.snaps),
+                                    coarse.rejected_steps, "")
     if resume is not None:
-        return _resume_fine(problem, cproblem, path, kappa, linear, newton_options,
-                            step_options, stats, report, coarse, states, *resume, scale,
-                            on_step)
+        done, info = _resume_fine(problem, cproblem, path, kappa, linear, newton_options,
+                                  step_options, stats, report, coarse, states, *resume, scale,
+                                  on_step)
+        if done != "snapped":
+            return done, info
+        # the fine branch ended at the coarse fold: the sheet snaps there on the
+        # fine mesh too, onto the branch the coarse path snapped to
+        steps, snaps, rejected, note = info
     opts = replace(newton_options,
                    max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
 
@@ -682,7 +697,6 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
                       max_first_increment=scale * step_options.max_correction), w
 
     res, w0 = finish(cproblem, coarse.w, problem, linear, stats)
-    steps = tuple(coarse.steps)
     if not res.converged:
         # a coarse state too far from the fine equilibrium for Newton: through
         # a mesh between the two (its work counted with the coarse mesh's)
@@ -711,19 +725,38 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
     report(1.0)
     return _Finished(w=res.w, kappa=coarse.kappa, g=coarse.g,
                      steps=steps + (("fine", 1.0, res.iterations),),
-                     snaps=tuple(coarse.snaps), rejected_steps=coarse.rejected_steps,
-                     stable=stable, negative_eigenvalues=k), ""
+                     snaps=snaps, rejected_steps=rejected,
+                     stable=stable, negative_eigenvalues=k, resume=note), ""
 
 
 def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_options, stats,
                  report, coarse, states, index, why, scale, on_step):
     """The load path on ``problem`` resumed from the coarse state
-    ``states[index]`` (at the load of ``coarse.steps[index]``): transferred,
-    solved there by Newton to the intermediate tolerance, then
-    :func:`~skfem_sheet.continuation.follow_path` with ``resume``.  Returns
-    ``(outcome, "")`` or ``(None, why)`` as :func:`_coarse_to_fine`."""
-    phases = dict(load_phases(path, kappa))
-    last = load_phases(path, kappa)[-1][0]
+    ``states[index]`` (at the load of ``coarse.steps[index]``), after a late
+    coarse snap at ``lam_snap``.
+
+    The coarse state is transferred and solved there by Newton (to the
+    intermediate tolerance), then the fine path resumes
+    (:func:`~skfem_sheet.continuation.follow_path` with ``resume``), first
+    without snapping: its steps are not cut below ``StepOptions.snap_step``.
+    If it reaches full load, the fine mesh holds the branch (no snap).  If its
+    steps fall below ``snap_step`` within :data:`FOLD_SHIFT` of the coarse
+    snap, the fine branch ends at the coarse fold: the sheet snaps on the fine
+    mesh too (recorded at the last load the fine path held the branch), onto
+    the branch the coarse path snapped to, so the caller finishes the coarse
+    end state (a snap settle on the fine mesh costs about as much as its whole
+    path).  Otherwise the fine path goes on from where it stopped, snapping as
+    the load path does.
+
+    Returns ``(outcome, "")`` or ``(None, why)`` as :func:`_coarse_to_fine`,
+    or ``("snapped", (steps, snaps, rejected_steps, note))`` for the caller to
+    finish the coarse end state with that history.
+    """
+    named = load_phases(path, kappa)
+    phases, order = dict(named), [name for name, _ in named]
+    last = order[-1]
+    lam_snap = min(lam for phase, lam, _, _ in coarse.snaps
+                   if phase == last and lam >= 1 - LATE_SNAP)
     phase, lam, _ = coarse.steps[index]
     if phase != last:  # the end of the phase before: the start of the last one
         phase, lam = last, 0.0
@@ -738,26 +771,54 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     if not res.converged:
         return None, f"{where}: fine Newton from the coarse state failed: {res.reason}"
     frames = []  # passed on only if the resumed path succeeds (else the whole path runs)
-    rest = follow_path(problem, path, kappa, linear, newton_options=newton_options,
-                       step_options=step_options, stats=stats, w0=res.w, resume=(phase, lam),
-                       progress=lambda f: report(0.9 + 0.1 * f),
-                       on_step=None if on_step is None else
-                       lambda *frame: frames.append(frame))
-    if not rest.converged:
-        return None, f"{where}: the resumed fine path failed: {rest.reason}"
-    for frame in frames:
-        on_step(*frame)
-    order = [name for name, _ in load_phases(path, kappa)]
+    collect = None if on_step is None else (lambda *frame: frames.append(frame))
     before = tuple(x for x in coarse.snaps
                    if (order.index(x[0]), x[1]) <= (order.index(phase), lam))
+    steps = tuple(coarse.steps[:index + 1]) + (("fine", lam, res.iterations),)
+    rejected = coarse.rejected_steps
+    # first without snapping: does the fine branch end near the coarse fold?
+    no_snap = replace(step_options, min_step=max(step_options.min_step, step_options.snap_step),
+                      snap_step=0.5 * min(step_options.min_step, step_options.snap_step))
+    probe = follow_path(problem, path, kappa, linear, newton_options=newton_options,
+                        step_options=no_snap, stats=stats, w0=res.w, resume=(phase, lam),
+                        progress=lambda f: report(0.9 + 0.1 * f), on_step=collect)
+    steps += tuple(probe.steps)
+    rejected += probe.rejected_steps
+    rest = probe
+    if not probe.converged:
+        held = [x for x in probe.steps if x[0] == last]
+        lam_end = held[-1][1] if held else lam
+        stopped = (probe.reason.startswith(f"{last} phase stopped at")
+                   and "step below" in probe.reason)
+        if stopped and abs(lam_end - lam_snap) <= FOLD_SHIFT:
+            for frame in frames:
+                on_step(*frame)
+            k_end, g_end = phases[last](lam_end)
+            note = (f"{where}; the fine branch ends at {last} {lam_end:.3g} (snapped onto the "
+                    f"coarse path's branch)")
+            return "snapped", (steps, before + ((last, lam_end, k_end, g_end),), rejected,
+                               note)
+        if not stopped:
+            return None, f"{where}: the resumed fine path failed: {probe.reason}"
+        # the fine branch ends away from the coarse fold: the load path goes on
+        # from there, snapping as it does
+        rest = follow_path(problem, path, kappa, linear, newton_options=newton_options,
+                           step_options=step_options, stats=stats, w0=probe.w,
+                           resume=(last, lam_end), progress=lambda f: report(0.9 + 0.1 * f),
+                           on_step=collect)
+        if not rest.converged:
+            return None, f"{where}: the resumed fine path failed: {rest.reason}"
+        steps += tuple(rest.steps)
+        rejected += rest.rejected_steps
+    for frame in frames:
+        on_step(*frame)
     report(1.0)
-    return _Finished(w=rest.w, kappa=rest.kappa, g=rest.g,
-                     steps=tuple(coarse.steps[:index + 1]) + ((("fine", lam, res.iterations),)
-                                                              + tuple(rest.steps)),
-                     snaps=before + tuple(rest.snaps),
-                     rejected_steps=coarse.rejected_steps + rest.rejected_steps,
-                     stable=rest.stable, negative_eigenvalues=rest.negative_eigenvalues,
-                     resume=where), ""
+    return _Finished(w=rest.w, kappa=rest.kappa, g=rest.g, steps=steps,
+                     snaps=before + tuple(probe.snaps) + (() if rest is probe else
+                                                          tuple(rest.snaps)),
+                     rejected_steps=rejected, stable=rest.stable,
+                     negative_eigenvalues=rest.negative_eigenvalues, resume=where,
+                     own_frames=True), ""
 
 
 def _branch(path, snaps):

@@ -59,33 +59,75 @@ def test_no_coarser_mesh_runs_the_path():
     assert default.deflection == full.deflection
 
 
-def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch):
+@pytest.fixture(scope="module")
+def popping_sheet_full_path():
     # a/R = 6, L/a = 1.3: gravity-first loses the drooped branch in the curvature
-    # ramp (at about 0.47 of it on these meshes) and pops up.  A snap that late in
-    # the last phase does not decide the fine mesh's branch: with LATE_SNAP = 0.6
-    # the fine path resumes from the coarse state RESUME_MARGIN before the snap,
-    # and the fine mesh snaps itself: the state, the snap and the label are
-    # those of the fine mesh's full path
+    # ramp (at about 0.47 of it on these meshes) and pops up
     sheet = Sheet(1.3, 1.0, 6.0)
+    return sheet, solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="path")
+
+
+@pytest.mark.parametrize("fold_shift", [None, 0.0])
+def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch, popping_sheet_full_path,
+                                                            fold_shift):
+    # A snap that late in the last phase does not decide the fine mesh's branch:
+    # with LATE_SNAP = 0.6 the fine path resumes from the coarse state
+    # RESUME_MARGIN before the snap, and the fine mesh decides: its branch ends
+    # near the coarse fold (FOLD_SHIFT), so the sheet snaps there and the coarse
+    # end state is finished; with FOLD_SHIFT = 0 the fine path goes on from where
+    # its branch ended and snaps itself.  Either way the state, the snap and the
+    # label are those of the fine mesh's full path
+    sheet, full = popping_sheet_full_path
     monkeypatch.setattr(solve_module, "LATE_SNAP", 0.6)
-    full = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="path")
+    if fold_shift is not None:
+        monkeypatch.setattr(solve_module, "FOLD_SHIFT", fold_shift)
     back = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="coarse",
                  coarse_hmax=0.2)
     assert len(full.snaps) == 1 and full.snaps[0][1] > 0.4
     assert back.converged and back.coarse_fallback == "" and back.stable is True
     assert "snapped late in its curvature phase" in back.coarse_resume
     assert back.branch == full.branch == "curvature-dominated"
-    # one snap, the fine mesh's (the coarse one was later than 1 - LATE_SNAP, so dropped)
+    # one snap, the fine mesh's (to about a snap step: the last load its branch held)
     assert len(back.snaps) == 1 and back.snaps[0][0] == "curvature"
-    assert back.snaps[0][1] == pytest.approx(full.snaps[0][1], abs=0.02)
-    # the resumed load: a fine Newton step below full load, RESUME_MARGIN before the coarse snap
-    fine = [s for s in back.steps if s[0] == "fine"]
-    assert len(fine) == 1 and fine[0][1] < back.snaps[0][1] - solve_module.RESUME_MARGIN
-    assert back.steps[-1][:2] == ("curvature", 1.0)
+    assert back.snaps[0][1] == pytest.approx(full.snaps[0][1], abs=0.03)
+    # the resumed load: a fine Newton step RESUME_MARGIN before the coarse snap
+    resumed = next(s for s in back.steps if s[0] == "fine")
+    assert resumed[1] < back.snaps[0][1] - solve_module.RESUME_MARGIN
+    if fold_shift is None:
+        assert "snapped onto the coarse path's branch" in back.coarse_resume
+        assert back.steps[-1][:2] == ("fine", 1.0)
+        # the fine snap settle is skipped: far less fine work than the full path
+        assert back.factorizations < 0.8 * full.factorizations
+    else:
+        assert back.steps[-1][:2] == ("curvature", 1.0)
     # the same equilibrium, both polished to FINAL_UTOL
     assert back.deflection == pytest.approx(full.deflection, rel=1e-7)
     assert back.coarse_factorizations > 0 and back.factorizations > 0
     assert back.to_record()["coarse_resume"] == back.coarse_resume
+
+
+def test_a_fine_branch_that_holds_to_full_load_is_not_snapped(monkeypatch):
+    # the bistable rectangle's gravity-first path holds its branch on both meshes;
+    # a late snap recorded on the coarse path (made up here) makes the fine path
+    # resume before it, and the fine mesh, whose branch reaches full load, decides:
+    # no snap, the path's own branch, the full path's state
+    sheet = Sheet(1.3, 1.0, 2.5)
+    full = solve(sheet, path="gravity-first", hmax=0.1, start="path")
+    real = solve_module.follow_path
+
+    def coarse_snaps_late(problem, *args, **kwargs):
+        out = real(problem, *args, **kwargs)
+        if problem.sheet_mesh.hmax == 0.12 and out.converged:
+            out.snaps.append(("curvature", 0.9, 2.25, 1.0))
+        return out
+
+    monkeypatch.setattr(solve_module, "follow_path", coarse_snaps_late)
+    r = solve(sheet, path="gravity-first", hmax=0.1, coarse_hmax=0.12)
+    assert r.converged and r.coarse_fallback == "" and "resumed at curvature" in r.coarse_resume
+    assert r.snaps == () and r.branch == full.branch == "gravity-dominated"
+    assert r.deflection == pytest.approx(full.deflection, rel=1e-7)
+    fine = next(s for s in r.steps if s[0] == "fine")
+    assert fine[1] <= 0.9 - solve_module.RESUME_MARGIN and r.steps[-1][:2] == ("curvature", 1.0)
 
 
 def test_no_late_snap_means_no_resume():
