@@ -11,7 +11,7 @@ The lead's re-run (``solve``'s default start, ``"coarse"``; one command)::
 
     python benchmarks/solve_sample.py [--hmax 0.03] [--n 12] [--seed 16]
         [--json out.json] [--txt out.txt] [--no-cases] [--cases-only]
-        [--case rectangle] [--paths curvature-first,gravity-first]
+        [--case rectangle] [--sheet L,B,K ...] [--paths curvature-first,gravity-first]
         [--variant NAME=JSON ...] [--start path|coarse] [--coarse-hmax H]
         [--polish] [--threads N] [--timeout S]
 
@@ -343,6 +343,9 @@ def main(argv=None):
     ap.add_argument("--paths", default=",".join(PATHS), help="load paths (default both)")
     ap.add_argument("--no-cases", action="store_true", help="skip the four solve_speed cases")
     ap.add_argument("--cases-only", action="store_true", help="only the solve_speed cases")
+    ap.add_argument("--sheet", action="append", default=None, metavar="L,B,K",
+                    help="only this sheet (L/a, b/a, a/R; repeatable; group 'sheet'), "
+                         "e.g. to re-run a few rows of the sample")
     ap.add_argument("--case", choices=[c for c, _ in CASES], action="append",
                     help="only these solve_speed cases (repeatable)")
     ap.add_argument("--variant", type=_parse_variant, action="append",
@@ -375,9 +378,16 @@ def main(argv=None):
         ap.error("--variant names must differ")
 
     plan = []
-    if not args.cases_only:
+    if args.sheet:
+        for text in args.sheet:
+            try:
+                L, b, k = (float(x) for x in text.split(","))
+            except ValueError:
+                ap.error(f"--sheet must be L,B,K (three numbers), got {text!r}")
+            plan.append(("sheet", dict(length=L, tip_width=b, curvature=k)))
+    elif not args.cases_only:
         plan += [("sample", s) for s in sample_sheets(args.n, args.seed)]
-    if not args.no_cases:
+    if not args.no_cases and not args.sheet:
         plan += [(c, s) for c, s in CASES if not args.case or c in args.case]
     plan = [(g, s, p) for g, s in plan for p in paths]
     if not plan:
