@@ -406,8 +406,8 @@ def main(argv=None):
     t_start = time.perf_counter()
 
     def save():
-        sample = [r for r in rows if r["group"] == "sample"]
-        cases = [r for r in rows if r["group"] != "sample"]
+        sample = [r for r in rows if r["group"] in ("sample", "sheet")]
+        cases = [r for r in rows if r["group"] not in ("sample", "sheet")]
         doc = dict(benchmark="solve_sample", command=cmd, machine=info,
                    settings=dict(hmax=args.hmax, n=args.n, seed=args.seed, paths=paths,
                                  box=BOX, variants=dict(variants), threads=args.threads,

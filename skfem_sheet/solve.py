@@ -534,9 +534,12 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if bar is not None:
             bar.close()
     w, n_polish = out.w, 0
-    if out.converged:
-        # both starts: the same tight end state (d to FINAL_UTOL, not utol)
-        w, n_polish = _polish(problem, w, out.g, linear, stats)
+    if out.converged or (out.kappa, out.g) == (sheet.curvature, 1.0):
+        # both starts: the same tight end state (d to FINAL_UTOL, not utol); also
+        # an end state at full load that failed its stability check (solved to
+        # the full tolerance all the same)
+        w, n_polish = _polish(problem, w, out.g, linear, stats,
+                              first=10 * newton_options.utol)
     if pending:
         pr, w_last, k, g = pending.pop()
         if out.converged and pr is problem and (k, g) == (out.kappa, out.g):
@@ -588,14 +591,16 @@ class _Finished:
     own_frames: bool = False  # the end state was passed to on_step already
 
 
-def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None):
+def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None, first=np.inf):
     """Simplified Newton corrections of the equilibrium ``w`` at gravity ``g``
     with the factorisation ``linear`` holds (back-substitutions only), applied
     until one is at most ``utol`` (default :data:`FINAL_UTOL`; units of a,
     largest nodal displacement), at most ``max_iterations`` (default
     :data:`POLISH_ITERATIONS`).  Stops early, keeping the state it has, where
-    a correction is not finite, inverts an element or does not shrink to at
-    most half the previous one (the factorisation is then too far from ``w``).
+    a correction is not finite, inverts an element, exceeds ``first`` (the
+    first one: ``w`` was not solved to that tolerance) or does not shrink to
+    at most half the previous one (the factorisation is then too far from
+    ``w``).
 
     Returns
     -------
@@ -606,7 +611,7 @@ def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None):
     free = problem.free
     nu_free = free < problem.nu_dof
     w = np.array(w, dtype=float)
-    previous, n = np.inf, 0
+    previous, n = first, 0
     for _ in range(max_iterations):
         r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
         stats.residual_evaluations += 1
@@ -617,7 +622,7 @@ def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None):
         except LinearSolverError:
             break
         size = float(np.abs(du[nu_free]).max()) if np.any(nu_free) else 0.0
-        if not (np.isfinite(size) and size <= 0.5 * previous):
+        if not (np.isfinite(size) and size <= (previous if n == 0 else 0.5 * previous)):
             break
         w[free] += du
         n, previous = n + 1, size

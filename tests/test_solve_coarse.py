@@ -169,8 +169,11 @@ def test_polish_applies_corrections_until_final_utol():
     # the next correction is below FINAL_UTOL
     du = linear.solve(-problem.residual(w, 1.0)[0][free])
     assert np.abs(du[free < problem.nu_dof]).max() <= FINAL_UTOL
-    # nothing to polish without a useful factorisation: the state is kept
+    # nothing applied without iterations, or if the first correction exceeds `first`
+    # (a state not solved to that tolerance): the state is kept
     same, k = _polish(problem, res.w, 1.0, linear, Stats(), max_iterations=0)
+    assert k == 0 and np.array_equal(same, res.w)
+    same, k = _polish(problem, res.w, 1.0, linear, Stats(), first=1e-300)
     assert k == 0 and np.array_equal(same, res.w)
 
 
