@@ -42,10 +42,14 @@ LATE_SNAP = 0.25
 
 #: The fine path resumes from the coarse path's last accepted state of the
 #: snapping phase at ``lam <= lam_snap - RESUME_MARGIN`` (the phase's start if
-#: there is none): folds move between the meshes (by at most 0.025 of the
-#: phase between hmax 0.1 and 0.03 on the sample of
-#: ``benchmarks/solve_sample.py``, the fine fold later), so the fine path
-#: starts on the branch the coarse path was following, before its fold.
+#: there is none), so that it starts on the branch the coarse path was
+#: following, before the fine fold.  Folds move little between the meshes, and
+#: so far always to later loads on the finer mesh: by 0.007-0.023 of the phase
+#: between hmax 0.1 and 0.03 on the three snapping solves of the sample of
+#: ``benchmarks/solve_sample.py``, 0.017 between 0.1 and 0.08 on the sheet of
+#: issue 17.  (For the same reason a coarse path that holds its branch to full
+#: load is taken to decide the fine mesh's branch: no fold was seen to move to
+#: earlier loads on the finer mesh.)
 RESUME_MARGIN = 0.05
 
 #: A resumed fine path whose branch ends (steps cut below
