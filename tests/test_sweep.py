@@ -543,3 +543,16 @@ def test_an_old_row_without_start_is_a_path_row_never_reused_for_the_coarse_defa
     assert len(fake.calls) == 2
     # both rows are in the journal under their own keys
     assert len(read_journal(journal_path(table))) == 2
+
+
+def test_the_sweep_command_sweeps_the_start(fake, tmp_path):
+    from skfem_sheet.studies.sweep import check_point
+
+    args = ["sweep", "--lengths", "0.5", "--hmax", "0.2", "--workers", "1", "--quiet"]
+    assert main([*args, "--start", "both", "--table", str(tmp_path / "a.csv")]) == 0
+    df = pd.read_csv(tmp_path / "a.csv")
+    assert sorted(df.start) == ["coarse", "path"] and len(fake.calls) == 2
+    assert main([*args, "--table", str(tmp_path / "b.csv")]) == 0
+    assert list(pd.read_csv(tmp_path / "b.csv").start) == ["coarse"]
+    with pytest.raises(ParameterError, match="start"):
+        check_point({"length": 0.5, "start": "fine"})

@@ -100,7 +100,7 @@ from ..continuation import PATHS
 from ..linalg import SOLVERS, available_solvers
 from ..mesh import estimate_dofs
 from ..params import ParameterError, Sheet
-from ..solve import MAX_DOFS, Result, solve
+from ..solve import MAX_DOFS, STARTS, Result, solve
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
@@ -312,6 +312,8 @@ def check_point(point) -> None:
                              "'skfem_sheet[fast]')")
     if not isinstance(p["symmetric"], (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {p['symmetric']!r}")
+    if p["start"] not in STARTS:
+        raise ParameterError(f"start must be one of {', '.join(STARTS)}, got {p['start']!r}")
     refine = p["refine"]
     n = estimate_dofs(sheet, p["hmax"], p["layers"], half=bool(p["symmetric"]), refine=refine)
     if n > MAX_DOFS:
