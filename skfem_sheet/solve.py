@@ -805,8 +805,8 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     if not probe.converged:
         held = [x for x in probe.steps if x[0] == last]
         lam_end = held[-1][1] if held else lam
-        stopped = (probe.reason.startswith(f"{last} phase stopped at")
-                   and "step below" in probe.reason)
+        # (not the end-state check at full load: the probe's branch ended short of it)
+        stopped = lam_end < 1.0 and (probe.kappa, probe.g) == phases[last](lam_end)
         if stopped and abs(lam_end - lam_snap) <= FOLD_SHIFT:
             for frame in frames:
                 on_step(*frame)
