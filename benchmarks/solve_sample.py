@@ -1,8 +1,17 @@
-"""Speed of full-path solves over a seeded random sample of sheets (issue 16, item 1).
+"""Speed of solves over a seeded random sample of sheets (issue 16, item 1).
+
+The lead's re-run (``solve``'s default start, ``"coarse"``; one command)::
+
+    flock /work/heavy.lock python benchmarks/solve_sample.py --hmax 0.03 --n 12 --seed 16 \
+        --json benchmarks/results/solve_sample_hmax0.03_coarse.json \
+        --txt benchmarks/results/solve_sample_hmax0.03_coarse.txt
+    python benchmarks/solve_sample_compare.py benchmarks/results/solve_sample_hmax0.03_path.json \
+        benchmarks/results/solve_sample_hmax0.03_coarse.json --by-run --base path --other coarse \
+        --txt benchmarks/results/solve_sample_hmax0.03_coarse_vs_path.txt
 
     python benchmarks/solve_sample.py [--hmax 0.03] [--n 12] [--seed 16]
         [--json out.json] [--txt out.txt] [--no-cases] [--cases-only]
-        [--case rectangle] [--paths curvature-first,gravity-first]
+        [--case rectangle] [--sheet L,B,K ...] [--paths curvature-first,gravity-first]
         [--variant NAME=JSON ...] [--start path|coarse] [--coarse-hmax H]
         [--polish] [--threads N] [--timeout S]
 
@@ -137,7 +146,9 @@ def _child(spec_json, out_path):
             start=getattr(r, "start", "path"),
             coarse_factorizations=int(getattr(r, "coarse_factorizations", 0)),
             coarse_newton_iterations=int(getattr(r, "coarse_newton_iterations", 0)),
-            coarse_fallback=getattr(r, "coarse_fallback", ""))
+            coarse_fallback=getattr(r, "coarse_fallback", ""),
+            coarse_resume=getattr(r, "coarse_resume", ""),
+            polish_iterations=int(getattr(r, "polish_iterations", 0)))
         if spec.get("polish") and r.converged:
             rec["deflection_polished"] = _polished_deflection(r)
     atomic_write(out_path, dumps_json(rec))
@@ -205,6 +216,7 @@ def summarise(rows):
         max_total_factorizations=max(total) if total else None,
         n_coarse_fallback=sum(bool(r.get("coarse_fallback")) for r in done
                               if r.get("start") == "coarse"),
+        n_coarse_resumed=sum(bool(r.get("coarse_resume")) for r in done),
         n=len(rows), n_failed=sum(r.get("status") != "converged" for r in rows),
         n_stable_unknown=sum(r.get("status") == "converged" and r.get("stable") is None
                              for r in rows),
@@ -288,22 +300,21 @@ def table(rows, variants):
 def _summary_lines(name, s):
     share = None if s["median_linear_share"] is None else 100 * s["median_linear_share"]
     return [f"{name}: {s['n']} solves ({s['n_failed']} not converged, {s['n_stable_unknown']} "
-            f"converged with stability unknown); factorisations median "
+            f"converged with stability unknown); factorisations on the mesh hmax (fine) median "
             f"{fmt(s['median_factorizations'], 'g')}, max {fmt(s['max_factorizations'], 'g')}; "
-            f"back-substitutions median {fmt(s['median_back_substitutions'], 'g')}; Newton "
+            f"coarse median {fmt(s['median_coarse_factorizations'], 'g')}, max "
+            f"{fmt(s['max_coarse_factorizations'], 'g')}; fine + coarse median "
+            f"{fmt(s['median_total_factorizations'], 'g')}, max "
+            f"{fmt(s['max_total_factorizations'], 'g')}; fell back to the fine path "
+            f"{s['n_coarse_fallback']}, resumed the fine path after a late coarse snap "
+            f"{s.get('n_coarse_resumed', 0)}; wall median {fmt(s['median_wall_s'], '.1f')} "
+            f"s, max {fmt(s['max_wall_s'], '.1f')} s; back-substitutions median "
+            f"{fmt(s['median_back_substitutions'], 'g')}; Newton "
             f"median {fmt(s['median_newton_iterations'], 'g')}, max "
-            f"{fmt(s['max_newton_iterations'], 'g')}; wall median {fmt(s['median_wall_s'], '.1f')} "
-            f"s, max {fmt(s['max_wall_s'], '.1f')} s; linear-solver share median "
+            f"{fmt(s['max_newton_iterations'], 'g')}; linear-solver share median "
             f"{fmt(share, '.0f')}"
             f"%; peak memory max {fmt(s['max_peak_rss_gb'], '.3f')} GB; factorisations with "
-            f"perturbed pivots {s['perturbed_factorizations']}"
-            + ("" if not s["max_coarse_factorizations"] else
-               f"; coarse-path factorisations median "
-               f"{fmt(s['median_coarse_factorizations'], 'g')}, max "
-               f"{fmt(s['max_coarse_factorizations'], 'g')}; fine + coarse median "
-               f"{fmt(s['median_total_factorizations'], 'g')}, max "
-               f"{fmt(s['max_total_factorizations'], 'g')}; fell back to the fine path "
-               f"{s['n_coarse_fallback']}")]
+            f"perturbed pivots {s['perturbed_factorizations']}"]
 
 
 def _parse_variant(text):
@@ -332,6 +343,9 @@ def main(argv=None):
     ap.add_argument("--paths", default=",".join(PATHS), help="load paths (default both)")
     ap.add_argument("--no-cases", action="store_true", help="skip the four solve_speed cases")
     ap.add_argument("--cases-only", action="store_true", help="only the solve_speed cases")
+    ap.add_argument("--sheet", action="append", default=None, metavar="L,B,K",
+                    help="only this sheet (L/a, b/a, a/R; repeatable; group 'sheet'), "
+                         "e.g. to re-run a few rows of the sample")
     ap.add_argument("--case", choices=[c for c, _ in CASES], action="append",
                     help="only these solve_speed cases (repeatable)")
     ap.add_argument("--variant", type=_parse_variant, action="append",
@@ -364,9 +378,16 @@ def main(argv=None):
         ap.error("--variant names must differ")
 
     plan = []
-    if not args.cases_only:
+    if args.sheet:
+        for text in args.sheet:
+            try:
+                L, b, k = (float(x) for x in text.split(","))
+            except ValueError:
+                ap.error(f"--sheet must be L,B,K (three numbers), got {text!r}")
+            plan.append(("sheet", dict(length=L, tip_width=b, curvature=k)))
+    elif not args.cases_only:
         plan += [("sample", s) for s in sample_sheets(args.n, args.seed)]
-    if not args.no_cases:
+    if not args.no_cases and not args.sheet:
         plan += [(c, s) for c, s in CASES if not args.case or c in args.case]
     plan = [(g, s, p) for g, s in plan for p in paths]
     if not plan:
@@ -385,8 +406,8 @@ def main(argv=None):
     t_start = time.perf_counter()
 
     def save():
-        sample = [r for r in rows if r["group"] == "sample"]
-        cases = [r for r in rows if r["group"] != "sample"]
+        sample = [r for r in rows if r["group"] in ("sample", "sheet")]
+        cases = [r for r in rows if r["group"] not in ("sample", "sheet")]
         doc = dict(benchmark="solve_sample", command=cmd, machine=info,
                    settings=dict(hmax=args.hmax, n=args.n, seed=args.seed, paths=paths,
                                  box=BOX, variants=dict(variants), threads=args.threads,
@@ -436,7 +457,7 @@ def main(argv=None):
              f"# {info['date']}, {info['cpus']} cpus, load average at start "
              f"{', '.join(f'{x:.2f}' for x in info.get('load_average_at_start', []))}; "
              f"{len(rows)} solves in {doc['elapsed_s']:.0f} s; each solve in a fresh process",
-             f"full-path solves at hmax = {args.hmax:g}: a seeded sample of {args.n} sheets "
+             f"solves (start {args.start or 'solve default'}) at hmax = {args.hmax:g}: a seeded sample of {args.n} sheets "
              f"(seed {args.seed}; L/a in {BOX['length']}, b/a in {BOX['tip_width']}, a/R in "
              f"{BOX['curvature']}) on {' and '.join(paths)}, and the solve_speed cases"]
     lines += table(rows, names)

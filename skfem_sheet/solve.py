@@ -12,15 +12,16 @@ from .analyses.observables import tip_deflection
 from .analyses.transfer import transfer
 from .continuation import PATHS, StepOptions, end_state_verdict, follow_path, load_phases
 from .io import write_result
-from .linalg import make_linear_solver
+from .linalg import LinearSolverError, make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
-from .newton import NewtonOptions, Stats, newton
+from .newton import NewtonOptions, Stats, newton, timed
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .version import __version__
 
 __all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS", "STARTS",
-           "COARSE_HMAX", "LATE_SNAP", "FINISH_ITERATIONS"]
+           "COARSE_HMAX", "LATE_SNAP", "RESUME_MARGIN", "FOLD_SHIFT", "FINISH_ITERATIONS", "FINAL_UTOL",
+           "POLISH_ITERATIONS"]
 
 #: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
 MAX_DOFS = 1_500_000
@@ -35,14 +36,49 @@ COARSE_HMAX = 0.1
 #: A coarse path that snapped in its last phase at ``lam >= 1 - LATE_SNAP`` of
 #: that phase (or at full load, leaving an unstable end state) does not decide
 #: the branch of the fine mesh: its fold may lie on the other side of full
-#: load there, and ``start="coarse"`` runs the fine path instead.
+#: load there, and ``start="coarse"`` resumes the load path on the fine mesh
+#: from the coarse state before the snap (:data:`RESUME_MARGIN`).
 LATE_SNAP = 0.25
+
+#: The fine path resumes from the coarse path's last accepted state of the
+#: snapping phase at ``lam <= lam_snap - RESUME_MARGIN`` (the phase's start if
+#: there is none), so that it starts on the branch the coarse path was
+#: following, before the fine fold.  Folds move little between the meshes, and
+#: so far always to later loads on the finer mesh: by 0.007-0.023 of the phase
+#: between hmax 0.1 and 0.03 on the three snapping solves of the sample of
+#: ``benchmarks/solve_sample.py``, 0.017 between 0.1 and 0.08 on the sheet of
+#: issue 17.  (For the same reason a coarse path that holds its branch to full
+#: load is taken to decide the fine mesh's branch: no fold was seen to move to
+#: earlier loads on the finer mesh.)
+RESUME_MARGIN = 0.05
+
+#: A resumed fine path whose branch ends (steps cut below
+#: ``StepOptions.snap_step``) within this of the late coarse snap (fraction of
+#: the phase) ends at the coarse fold: the sheet snaps there on the fine mesh
+#: too, onto the branch the coarse path snapped to (its end state is finished
+#: on the fine mesh instead of a snap settle there).
+FOLD_SHIFT = 0.1
 
 #: Newton iterations allowed to finish a transferred coarse state on the fine
 #: mesh (at least ``NewtonOptions.max_iterations``); beyond them the state is
 #: taken through a mesh between the two, and if that fails too the fine path
 #: runs instead.
 FINISH_ITERATIONS = 8
+
+#: Tolerance (units of a) of the last displacement correction of the final
+#: polish of every converged solve (both starts): the load path's (or the
+#: fine finish's) Newton solve stops when the next correction is below
+#: ``NewtonOptions.utol`` (1e-6) without applying it; the polish applies
+#: simplified Newton corrections with the factorisation at hand
+#: (back-substitutions only, no factorisation) until one is at most
+#: ``FINAL_UTOL``.  Two solves of one equilibrium (e.g. the two starts) then
+#: agree in d to about ``FINAL_UTOL`` instead of ``utol`` (1e-6 relative
+#: also where d is 0.007).
+FINAL_UTOL = 1e-9
+
+#: Most corrections of the final polish (it stops early, keeping the state it
+#: has, if a correction does not shrink to at most half the previous one).
+POLISH_ITERATIONS = 4
 
 
 class SolveError(RuntimeError):
@@ -93,8 +129,16 @@ class Result:
         ``"curvature-dominated"`` or ``"gravity-dominated"``: the branch the
         load path selects (curvature-first: curvature-dominated), switched if
         the path snapped (a jump of more than 0.1 max(1, L) in a step below
-        ``StepOptions.snap_step``).  Outside the bistable range both paths reach the same
-        state, whatever its name.
+        ``StepOptions.snap_step``).  The label is the history of the load
+        path, not a property of the end state: outside the bistable range both
+        paths reach the same state, whatever its name.  With
+        ``start="coarse"`` the history is the coarse path's up to where the
+        fine mesh takes over (full load; or, after a late coarse snap, the
+        resumed load, and the fine path's history from there), so a fold
+        near full load, which one mesh may have before full load and the
+        other not, is the fine mesh's to decide.  A fold crossed within one
+        load step without a recorded snap is not in the history of either
+        (what is recorded is the load path's guard's decision).
     stable : bool or None
         Whether the equilibrium is stable: the constrained Hessian (the tangent
         on the incompressible subspace) is positive definite, read off the
@@ -121,8 +165,16 @@ class Result:
     coarse_factorizations, coarse_newton_iterations : int
         Work on the coarse mesh and an intermediate one (0 without them); ``factorizations`` and
         ``newton_iterations`` count the mesh ``hmax`` only (including a
-        finishing attempt that fell back), ``wall_time_s`` includes the
-        coarse path.
+        finishing attempt that fell back, and a resumed fine path),
+        ``wall_time_s`` includes the coarse path.
+    coarse_resume : str
+        Why and where the load path resumed on the mesh ``hmax`` from a
+        state of the coarse path (a late coarse snap, see :data:`LATE_SNAP`),
+        e.g. ``"coarse path snapped late in its curvature phase (at 0.8);
+        resumed at curvature 0.69"``; empty otherwise.
+    polish_iterations : int
+        Simplified-Newton corrections of the final polish (:data:`FINAL_UTOL`;
+        their back-substitutions are counted in ``back_substitutions``).
     """
 
     sheet: Sheet
@@ -158,6 +210,8 @@ class Result:
     coarse_fallback: str = ""
     coarse_factorizations: int = 0
     coarse_newton_iterations: int = 0
+    coarse_resume: str = ""
+    polish_iterations: int = 0
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -218,6 +272,8 @@ class Result:
         ("coarse_fallback", "str", lambda r: r.coarse_fallback),
         ("coarse_factorizations", "int", lambda r: r.coarse_factorizations),
         ("coarse_newton_iterations", "int", lambda r: r.coarse_newton_iterations),
+        ("coarse_resume", "str", lambda r: r.coarse_resume),
+        ("polish_iterations", "int", lambda r: r.polish_iterations),
     )
 
     def to_record(self) -> dict:
@@ -312,7 +368,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False, series=None,
-          start: str = "path", coarse_hmax: float = COARSE_HMAX) -> Result:
+          start: str = "coarse", coarse_hmax: float = COARSE_HMAX) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -350,33 +406,47 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         Collects the state of every accepted load step (``series.write``
         writes them as a ParaView series); nothing is kept when None.
         With ``start="coarse"`` only the states on the mesh ``hmax``.
-    start : {"path", "coarse"}
-        ``"path"`` (default): the load path on the mesh ``hmax``.
-        ``"coarse"``: the load path on the mesh ``coarse_hmax`` (seconds),
-        its end state transferred to the mesh ``hmax``
+    start : {"coarse", "path"}
+        ``"coarse"`` (default): the load path on the mesh ``coarse_hmax``
+        (seconds), its end state transferred to the mesh ``hmax``
         (:func:`~skfem_sheet.analyses.transfer.transfer`) and finished there
         by Newton at full load, keeping the branch the coarse path selected
         (``snaps``, ``steps`` and ``branch`` are then the coarse path's, the
-        last step ``("fine", 1.0, iterations)``).  The load path runs on the
-        mesh ``hmax`` instead (``coarse_fallback`` says why) when the coarse
-        path failed, or snapped late in its last phase (:data:`LATE_SNAP`:
-        near a fold the meshes may disagree about the branch), or the fine
-        Newton fails within :data:`FINISH_ITERATIONS` also after a detour
-        through the mesh ``sqrt(coarse_hmax hmax)`` (a step
+        last step ``("fine", 1.0, iterations)``).  ``"path"``: the load path
+        on the mesh ``hmax`` from the reference state (the default before
+        the coarse start was measured at hmax 0.03; a sweep journal's row
+        without a ``start`` is a ``"path"`` row).
+
+        Where the coarse path snapped late in its last phase
+        (:data:`LATE_SNAP`: near a fold the meshes may disagree about the
+        branch), the load path resumes on the mesh ``hmax`` from the coarse
+        state :data:`RESUME_MARGIN` before the snap (transferred and solved
+        there by Newton: a step ``("fine", lam, iterations)``), and the fine
+        mesh decides whether it snaps: ``steps`` and ``snaps`` are the coarse
+        path's up to there, then the fine path's (``coarse_resume`` says
+        where).  The load path runs on the mesh ``hmax`` from the start
+        instead (``coarse_fallback`` says why) when the coarse path failed,
+        or the fine Newton fails within :data:`FINISH_ITERATIONS` also after
+        a detour through the mesh ``sqrt(coarse_hmax hmax)`` (a step
         ``("intermediate", 1.0, iterations)``, its work counted with the
         coarse mesh's), or it moves a node by more than ``0.1 max(1, L)``
         from the coarse state (a jump of branch), or the fine end state is
         not known to be stable (by the load paths' own end-state check,
-        :func:`~skfem_sheet.continuation.end_state_verdict`).  Measured against the fine path at hmax 0.06
-        (``benchmarks/results/coarse_to_fine_compare_hmax0.06.txt``): the
-        same end state on every sampled sheet and path (d to round-off after a
-        tight solve), but the ``branch`` label may differ where one mesh
-        snaps and the other reaches the same state without a fold (the label
-        is the path's history); the fold of a branch can vanish between the
-        meshes, which no rule on the coarse path sees.  Not the default for
-        that reason, and because sweep journals key on the options that
-        differ from the defaults (a new default would silently reuse rows
-        solved the old way).
+        :func:`~skfem_sheet.continuation.end_state_verdict`), or a resumed
+        fine path did not reach full load.  Measured against the fine path
+        at hmax 0.03 on a random sample of 12 sheets and both paths and the
+        four cases of ``benchmarks/solve_speed.py``
+        (``benchmarks/results/solve_sample_hmax0.03_coarse_vs_path.txt``,
+        ``..._coarse_vs_path_d.txt``): the same end state on all 28 solves,
+        d to 2.7e-7 relative, the fine mesh's factorisations median 4, at
+        most 6 (the path's: median 32, at most 97).  The ``branch`` label
+        differs on one of them, where the coarse path crosses a fold within
+        one load step without recording a snap (the fine path records it):
+        the label is the recorded history.
+
+        Either way a converged end state is polished to :data:`FINAL_UTOL`
+        by back-substitutions with the last factorisation
+        (``polish_iterations``).
     coarse_hmax : float
         Mesh size of the coarse path (default :data:`COARSE_HMAX`); with
         ``coarse_hmax <= hmax`` the load path runs on the mesh ``hmax``.
@@ -444,6 +514,16 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     cstats = Stats()
     fallback = ""
     out = None
+    # the series' frames are passed on one step late, so that the last one
+    # can be the polished end state (the Result's)
+    pending = []
+
+    def on_step(pr, w_step, k, g):
+        if pending:
+            series.on_step(*pending.pop())
+        pending.append((pr, np.array(w_step, dtype=float), k, g))
+
+    hook = None if series is None else on_step
     try:
         if start == "coarse":
             if coarse_hmax <= hmax:
@@ -453,18 +533,30 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                                          bool(symmetric), 0)
                 out, fallback = _coarse_to_fine(
                     problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
-                    step_options, stats, cstats, report, quadrature_order)
-                if out is not None and series is not None:
-                    series.on_step(problem, out.w, out.kappa, out.g)
+                    step_options, stats, cstats, report, quadrature_order,
+                    hook)
+                if out is not None and series is not None and not out.own_frames:
+                    on_step(problem, out.w, out.kappa, out.g)
         if out is None:
             out = follow_path(problem, path, sheet.curvature, linear,
                               newton_options=newton_options, step_options=step_options,
                               stats=stats, progress=report,
-                              on_step=None if series is None else series.on_step)
+                              on_step=hook)
     finally:
         if bar is not None:
             bar.close()
-    w = out.w
+    w, n_polish = out.w, 0
+    if out.converged or (out.kappa, out.g) == (sheet.curvature, 1.0):
+        # both starts: the same tight end state (d to FINAL_UTOL, not utol); also
+        # an end state at full load that failed its stability check (solved to
+        # the full tolerance all the same)
+        w, n_polish = _polish(problem, w, out.g, linear, stats,
+                              first=10 * newton_options.utol)
+    if pending:
+        pr, w_last, k, g = pending.pop()
+        if out.converged and pr is problem and (k, g) == (out.kappa, out.g):
+            w_last = w  # the end state, as the Result holds it
+        series.on_step(pr, w_last, k, g)
     # the load path verified its end state (the inertia of its tangent)
     stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
     result = Result(
@@ -485,7 +577,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         back_substitutions=_back_substitutions(linear), start=start,
         coarse_hmax=coarse_hmax, coarse_fallback=fallback,
         coarse_factorizations=cstats.factorizations,
-        coarse_newton_iterations=cstats.newton_iterations)
+        coarse_newton_iterations=cstats.newton_iterations,
+        coarse_resume=getattr(out, "resume", ""), polish_iterations=n_polish)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
@@ -506,32 +599,111 @@ class _Finished:
     negative_eigenvalues: object
     converged: bool = True
     reason: str = ""
+    resume: str = ""
+    own_frames: bool = False  # the end state was passed to on_step already
+
+
+def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None, first=np.inf):
+    """Simplified Newton corrections of the equilibrium ``w`` at gravity ``g``
+    with the factorisation ``linear`` holds (back-substitutions only), applied
+    until one is at most ``utol`` (default :data:`FINAL_UTOL`; units of a,
+    largest nodal displacement), at most ``max_iterations`` (default
+    :data:`POLISH_ITERATIONS`).  Stops early, keeping the state it has, where
+    a correction is not finite, inverts an element, exceeds ``first`` (the
+    first one: ``w`` was not solved to that tolerance) or does not shrink to
+    at most half the previous one (the factorisation is then too far from
+    ``w``).
+
+    Returns
+    -------
+    (w, n) : the polished state and the number of corrections applied.
+    """
+    utol = FINAL_UTOL if utol is None else utol
+    max_iterations = POLISH_ITERATIONS if max_iterations is None else max_iterations
+    free = problem.free
+    nu_free = free < problem.nu_dof
+    w = np.array(w, dtype=float)
+    previous, n = first, 0
+    for _ in range(max_iterations):
+        r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
+        stats.residual_evaluations += 1
+        if not (Jmin > 0 and np.all(np.isfinite(r))):
+            break
+        try:
+            du = timed(stats, "linear_solve_s", linear.solve, -r[free])
+        except LinearSolverError:
+            break
+        size = float(np.abs(du[nu_free]).max()) if np.any(nu_free) else 0.0
+        if not (np.isfinite(size) and size <= (previous if n == 0 else 0.5 * previous)):
+            break
+        w[free] += du
+        n, previous = n + 1, size
+        if size <= utol:
+            break
+    return w, n
+
+
+def _resume_load(coarse, states, path, kappa):
+    """Where the fine path resumes after a late coarse snap: ``(index, why)``
+    of the state in ``states`` (aligned with ``coarse.steps``) to resume from,
+    or ``None`` if the coarse path did not snap late in its last phase."""
+    phases = load_phases(path, kappa)
+    last = phases[-1][0]
+    late = [lam for phase, lam, _, _ in coarse.snaps
+            if phase == last and lam >= 1 - LATE_SNAP]
+    if len(phases) < 2 or not late or len(states) != len(coarse.steps):
+        return None
+    lam_snap = min(late)
+    # the last accepted state of the last phase RESUME_MARGIN before the snap,
+    # else the last state of the phase before (the last phase's start)
+    index = None
+    for i, (phase, lam, _) in enumerate(coarse.steps):
+        if phase == last and lam <= lam_snap - RESUME_MARGIN:
+            index = i
+        elif phase != last:
+            index = i
+    if index is None:
+        return None
+    return index, (f"coarse path snapped late in its {last} phase (at {lam_snap:.3g} "
+                   f"of its range)")
 
 
 def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
-                    step_options, stats, cstats, report, quadrature_order):
+                    step_options, stats, cstats, report, quadrature_order, on_step=None):
     """The load path on ``cproblem``, finished on ``problem`` at full load.
 
     Returns ``(outcome, "")`` if the coarse path's end state, transferred and
     solved by Newton on ``problem``, is a stable equilibrium near it on the
-    branch the coarse path selected; else ``(None, why)`` (the caller runs the
-    load path on ``problem``).  ``stats`` counts the fine mesh's work (also of
-    an attempt that fell back), ``cstats`` the coarse mesh's.
+    branch the coarse path selected, or if the coarse path snapped late and
+    the load path resumed on ``problem`` from a coarse state before the snap
+    reached full load (``outcome.resume`` says where; ``on_step`` sees its
+    steps); else ``(None, why)`` (the caller runs the load path on
+    ``problem``).  ``stats`` counts the fine mesh's work (also of an attempt
+    that fell back), ``cstats`` the coarse mesh's.
     """
     clinear = make_linear_solver(solver)
     if getattr(clinear, "needs_layout", False):
         clinear.attach(cproblem.saddle_point_layout())
+    states = []
     coarse = follow_path(cproblem, path, kappa, clinear, newton_options=newton_options,
                          step_options=step_options, stats=cstats,
-                         progress=lambda f: report(0.9 * f))
+                         progress=lambda f: report(0.9 * f),
+                         on_step=lambda pr, w, k, g: states.append(w.copy()))
     if not coarse.converged:
         return None, f"coarse path failed: {coarse.reason}"
-    last = load_phases(path, kappa)[-1][0]
-    late = [lam for phase, lam, _, _ in coarse.snaps if phase == last and lam >= 1 - LATE_SNAP]
-    if late:
-        return None, (f"coarse path snapped late in its {last} phase (at {max(late):.3g} "
-                      f"of its range)")
     scale = max(1.0, problem.sheet.length)
+    resume = _resume_load(coarse, states, path, kappa)
+    steps, snaps, rejected, note = (tuple(coarse.steps), tuple(coarse.snaps),
+                                    coarse.rejected_steps, "")
+    if resume is not None:
+        done, info = _resume_fine(problem, cproblem, path, kappa, linear, newton_options,
+                                  step_options, stats, report, coarse, states, *resume, scale,
+                                  on_step)
+        if done != "snapped":
+            return done, info
+        # the fine branch ended at the coarse fold: the sheet snaps there on the
+        # fine mesh too, onto the branch the coarse path snapped to
+        steps, snaps, rejected, note = info
     opts = replace(newton_options,
                    max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
 
@@ -542,7 +714,6 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
                       max_first_increment=scale * step_options.max_correction), w
 
     res, w0 = finish(cproblem, coarse.w, problem, linear, stats)
-    steps = tuple(coarse.steps)
     if not res.converged:
         # a coarse state too far from the fine equilibrium for Newton: through
         # a mesh between the two (its work counted with the coarse mesh's)
@@ -571,8 +742,100 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
     report(1.0)
     return _Finished(w=res.w, kappa=coarse.kappa, g=coarse.g,
                      steps=steps + (("fine", 1.0, res.iterations),),
-                     snaps=tuple(coarse.snaps), rejected_steps=coarse.rejected_steps,
-                     stable=stable, negative_eigenvalues=k), ""
+                     snaps=snaps, rejected_steps=rejected,
+                     stable=stable, negative_eigenvalues=k, resume=note), ""
+
+
+def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_options, stats,
+                 report, coarse, states, index, why, scale, on_step):
+    """The load path on ``problem`` resumed from the coarse state
+    ``states[index]`` (at the load of ``coarse.steps[index]``), after a late
+    coarse snap at ``lam_snap``.
+
+    The coarse state is transferred and solved there by Newton (to the
+    intermediate tolerance), then the fine path resumes
+    (:func:`~skfem_sheet.continuation.follow_path` with ``resume``), first
+    without snapping: its steps are not cut below ``StepOptions.snap_step``.
+    If it reaches full load, the fine mesh holds the branch (no snap).  If its
+    steps fall below ``snap_step`` within :data:`FOLD_SHIFT` of the coarse
+    snap, the fine branch ends at the coarse fold: the sheet snaps on the fine
+    mesh too (recorded at the last load the fine path held the branch), onto
+    the branch the coarse path snapped to, so the caller finishes the coarse
+    end state (a snap settle on the fine mesh costs about as much as its whole
+    path).  Otherwise the fine path goes on from where it stopped, snapping as
+    the load path does.
+
+    Returns ``(outcome, "")`` or ``(None, why)`` as :func:`_coarse_to_fine`,
+    or ``("snapped", (steps, snaps, rejected_steps, note))`` for the caller to
+    finish the coarse end state with that history.
+    """
+    named = load_phases(path, kappa)
+    phases, order = dict(named), [name for name, _ in named]
+    last = order[-1]
+    lam_snap = min(lam for phase, lam, _, _ in coarse.snaps
+                   if phase == last and lam >= 1 - LATE_SNAP)
+    phase, lam, _ = coarse.steps[index]
+    if phase != last:  # the end of the phase before: the start of the last one
+        phase, lam = last, 0.0
+    k, g = phases[phase](lam)
+    w = transfer(cproblem, states[index], problem)
+    w[problem.clamp_dofs] = problem.clamp_values(k)
+    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol,
+                    max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
+    res = newton(problem, w, g, linear, loose, stats,
+                 max_first_increment=scale * step_options.max_correction)
+    where = f"{why}; resumed at {phase} {lam:.3g}"
+    if not res.converged:
+        return None, f"{where}: fine Newton from the coarse state failed: {res.reason}"
+    frames = []  # passed on only if the resumed path succeeds (else the whole path runs)
+    collect = None if on_step is None else (lambda *frame: frames.append(frame))
+    before = tuple(x for x in coarse.snaps
+                   if (order.index(x[0]), x[1]) <= (order.index(phase), lam))
+    steps = tuple(coarse.steps[:index + 1]) + (("fine", lam, res.iterations),)
+    rejected = coarse.rejected_steps
+    # first without snapping: does the fine branch end near the coarse fold?
+    no_snap = replace(step_options, min_step=max(step_options.min_step, step_options.snap_step),
+                      snap_step=0.5 * min(step_options.min_step, step_options.snap_step))
+    probe = follow_path(problem, path, kappa, linear, newton_options=newton_options,
+                        step_options=no_snap, stats=stats, w0=res.w, resume=(phase, lam),
+                        progress=lambda f: report(0.9 + 0.1 * f), on_step=collect)
+    steps += tuple(probe.steps)
+    rejected += probe.rejected_steps
+    rest = probe
+    if not probe.converged:
+        held = [x for x in probe.steps if x[0] == last]
+        lam_end = held[-1][1] if held else lam
+        # (not the end-state check at full load: the probe's branch ended short of it)
+        stopped = lam_end < 1.0 and (probe.kappa, probe.g) == phases[last](lam_end)
+        if stopped and abs(lam_end - lam_snap) <= FOLD_SHIFT:
+            for frame in frames:
+                on_step(*frame)
+            k_end, g_end = phases[last](lam_end)
+            note = (f"{where}; the fine branch ends at {last} {lam_end:.3g} (snapped onto the "
+                    f"coarse path's branch)")
+            return "snapped", (steps, before + ((last, lam_end, k_end, g_end),), rejected,
+                               note)
+        if not stopped:
+            return None, f"{where}: the resumed fine path failed: {probe.reason}"
+        # the fine branch ends away from the coarse fold: the load path goes on
+        # from there, snapping as it does
+        rest = follow_path(problem, path, kappa, linear, newton_options=newton_options,
+                           step_options=step_options, stats=stats, w0=probe.w,
+                           resume=(last, lam_end), progress=lambda f: report(0.9 + 0.1 * f),
+                           on_step=collect)
+        if not rest.converged:
+            return None, f"{where}: the resumed fine path failed: {rest.reason}"
+        steps += tuple(rest.steps)
+        rejected += rest.rejected_steps
+    for frame in frames:
+        on_step(*frame)
+    report(1.0)
+    return _Finished(w=rest.w, kappa=rest.kappa, g=rest.g, steps=steps,
+                     snaps=before + tuple(probe.snaps) + (() if rest is probe else
+                                                          tuple(rest.snaps)),
+                     rejected_steps=rejected, stable=rest.stable,
+                     negative_eigenvalues=rest.negative_eigenvalues, resume=where,
+                     own_frames=True), ""
 
 
 def _branch(path, snaps):

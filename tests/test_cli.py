@@ -1,3 +1,4 @@
+import argparse
 import json
 import subprocess
 import sys
@@ -7,6 +8,7 @@ import pytest
 
 from skfem_sheet import Sheet, solve
 from skfem_sheet.cli import main
+from skfem_sheet.cli.solve import _start, add_solve_args
 
 
 def run(*args):
@@ -266,3 +268,19 @@ def test_solve_start_coarse_reports_the_coarse_work_separately(tmp_path):
     assert data["deflection"] == pytest.approx(ref.deflection, rel=1e-4)
     bad = run("solve", "--length", "0.8", "--start", "fine", "--quiet")
     assert bad.returncode != 0 and "start" in bad.stderr
+
+
+def test_solve_starts_coarse_by_default_and_path_with_a_series(tmp_path):
+    p = argparse.ArgumentParser()
+    add_solve_args(p)
+    assert _start(p.parse_args([])) == "coarse"
+    assert _start(p.parse_args(["--series", str(tmp_path)])) == "path"
+    assert _start(p.parse_args(["--series", str(tmp_path), "--start", "coarse"])) == "coarse"
+    assert _start(p.parse_args(["--start", "path"])) == "path"
+    out = tmp_path / "d.json"
+    r = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.1",
+            "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    data = json.loads(out.read_text())
+    assert data["start"] == "coarse" and data["coarse_factorizations"] > 0
+    assert "on the coarse mesh" in r.stdout

@@ -25,7 +25,7 @@ def _polished(r):
 def test_coarse_start_finds_the_path_s_branch_with_fewer_fine_factorisations(path):
     # the bistable rectangle: each path selects its own branch (d 0.05 aloft, 0.59 drooped)
     sheet = Sheet(1.3, 1.0, 2.5)
-    full = solve(sheet, path=path, hmax=0.1)
+    full = solve(sheet, path=path, hmax=0.1, start="path")
     fast = solve(sheet, path=path, hmax=0.1, start="coarse", coarse_hmax=0.12)
     assert fast.converged and fast.coarse_fallback == ""
     assert fast.branch == full.branch and fast.stable is True
@@ -48,29 +48,133 @@ def test_coarse_start_finds_the_path_s_branch_with_fewer_fine_factorisations(pat
 
 def test_no_coarser_mesh_runs_the_path():
     sheet = Sheet(length=0.8, curvature=2.0)
-    full = solve(sheet, hmax=0.15)
+    full = solve(sheet, hmax=0.15, start="path")
     same = solve(sheet, hmax=0.15, start="coarse", coarse_hmax=0.15)
     assert "not coarser" in same.coarse_fallback
     assert same.deflection == full.deflection
     assert same.factorizations == full.factorizations and same.coarse_factorizations == 0
+    # the default start is "coarse": on a mesh at least as coarse as COARSE_HMAX it runs the path
+    default = solve(sheet, hmax=0.15)
+    assert default.start == "coarse" and "not coarser" in default.coarse_fallback
+    assert default.deflection == full.deflection
 
 
-def test_a_late_coarse_snap_falls_back_to_the_fine_path(monkeypatch):
+@pytest.fixture(scope="module")
+def popping_sheet_full_path():
     # a/R = 6, L/a = 1.3: gravity-first loses the drooped branch in the curvature
-    # ramp (at about 0.47 of it on these meshes) and pops up.  A snap that late in
-    # the last phase does not decide the fine mesh's branch: with LATE_SNAP = 0.6
-    # the fine path runs, and its answer and fine work are those of start="path"
+    # ramp (at about 0.47 of it on these meshes) and pops up
     sheet = Sheet(1.3, 1.0, 6.0)
+    return sheet, solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="path")
+
+
+@pytest.mark.parametrize("fold_shift", [None, 0.0])
+def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch, popping_sheet_full_path,
+                                                            fold_shift):
+    # A snap that late in the last phase does not decide the fine mesh's branch:
+    # with LATE_SNAP = 0.6 the fine path resumes from the coarse state
+    # RESUME_MARGIN before the snap, and the fine mesh decides: its branch ends
+    # near the coarse fold (FOLD_SHIFT), so the sheet snaps there and the coarse
+    # end state is finished; with FOLD_SHIFT = 0 the fine path goes on from where
+    # its branch ended and snaps itself.  Either way the state, the snap and the
+    # label are those of the fine mesh's full path
+    sheet, full = popping_sheet_full_path
     monkeypatch.setattr(solve_module, "LATE_SNAP", 0.6)
-    full = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False)
+    if fold_shift is not None:
+        monkeypatch.setattr(solve_module, "FOLD_SHIFT", fold_shift)
     back = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="coarse",
                  coarse_hmax=0.2)
     assert len(full.snaps) == 1 and full.snaps[0][1] > 0.4
-    assert "snapped late in its curvature phase" in back.coarse_fallback
-    assert back.deflection == full.deflection and back.snaps == full.snaps
-    assert back.factorizations == full.factorizations
-    assert back.coarse_factorizations > 0  # the coarse work is counted, separately
-    assert back.wall_time_s > 0 and back.converged
+    assert back.converged and back.coarse_fallback == "" and back.stable is True
+    assert "snapped late in its curvature phase" in back.coarse_resume
+    assert back.branch == full.branch == "curvature-dominated"
+    # one snap, the fine mesh's (to about a snap step: the last load its branch held)
+    assert len(back.snaps) == 1 and back.snaps[0][0] == "curvature"
+    assert back.snaps[0][1] == pytest.approx(full.snaps[0][1], abs=0.03)
+    # the resumed load: a fine Newton step RESUME_MARGIN before the coarse snap
+    resumed = next(s for s in back.steps if s[0] == "fine")
+    assert resumed[1] < back.snaps[0][1] - solve_module.RESUME_MARGIN
+    if fold_shift is None:
+        assert "snapped onto the coarse path's branch" in back.coarse_resume
+        assert back.steps[-1][:2] == ("fine", 1.0)
+        # the fine snap settle is skipped: far less fine work than the full path
+        assert back.factorizations < 0.8 * full.factorizations
+    else:
+        assert back.steps[-1][:2] == ("curvature", 1.0)
+    # the same equilibrium, both polished to FINAL_UTOL
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-7)
+    assert back.coarse_factorizations > 0 and back.factorizations > 0
+    assert back.to_record()["coarse_resume"] == back.coarse_resume
+
+
+def test_a_fine_branch_that_holds_to_full_load_is_not_snapped(monkeypatch):
+    # the bistable rectangle's gravity-first path holds its branch on both meshes;
+    # a late snap recorded on the coarse path (made up here) makes the fine path
+    # resume before it, and the fine mesh, whose branch reaches full load, decides:
+    # no snap, the path's own branch, the full path's state
+    sheet = Sheet(1.3, 1.0, 2.5)
+    full = solve(sheet, path="gravity-first", hmax=0.1, start="path")
+    real = solve_module.follow_path
+
+    def coarse_snaps_late(problem, *args, **kwargs):
+        out = real(problem, *args, **kwargs)
+        if problem.sheet_mesh.hmax == 0.12 and out.converged:
+            out.snaps.append(("curvature", 0.9, 2.25, 1.0))
+        return out
+
+    monkeypatch.setattr(solve_module, "follow_path", coarse_snaps_late)
+    r = solve(sheet, path="gravity-first", hmax=0.1, coarse_hmax=0.12)
+    assert r.converged and r.coarse_fallback == "" and "resumed at curvature" in r.coarse_resume
+    assert r.snaps == () and r.branch == full.branch == "gravity-dominated"
+    assert r.deflection == pytest.approx(full.deflection, rel=1e-7)
+    fine = next(s for s in r.steps if s[0] == "fine")
+    assert fine[1] <= 0.9 - solve_module.RESUME_MARGIN and r.steps[-1][:2] == ("curvature", 1.0)
+
+
+def test_no_late_snap_means_no_resume():
+    # the bistable rectangle's gravity-first path holds its branch: nothing to resume
+    r = solve(Sheet(1.3, 1.0, 2.5), path="gravity-first", hmax=0.1, coarse_hmax=0.12)
+    assert r.coarse_resume == "" and r.coarse_fallback == "" and not r.snaps
+
+
+@pytest.mark.parametrize("path", ["curvature-first", "gravity-first"])
+def test_both_starts_are_polished_to_the_same_deflection(path):
+    # the final polish (back-substitutions with the last factorisation) makes
+    # the two starts agree in d to FINAL_UTOL, far below the Newton utol 1e-6
+    sheet = Sheet(1.3, 1.0, 2.5)
+    full = solve(sheet, path=path, hmax=0.1, start="path")
+    fast = solve(sheet, path=path, hmax=0.1, start="coarse", coarse_hmax=0.12)
+    assert full.polish_iterations >= 1 and fast.polish_iterations >= 1
+    assert abs(fast.deflection - full.deflection) <= 1e-7 * abs(full.deflection)
+    # the polish is the tight solve's answer
+    assert full.deflection == pytest.approx(_polished(full), rel=1e-8)
+    assert full.to_record()["polish_iterations"] == full.polish_iterations
+
+
+def test_polish_applies_corrections_until_final_utol():
+    from skfem_sheet.solve import FINAL_UTOL, _polish, build_problem
+
+    sheet = Sheet(length=0.8, curvature=2.0)
+    problem = build_problem(sheet, 0.15, None, 2, half=True)
+    linear = make_linear_solver("auto")
+    res = newton(problem, np.zeros(problem.ndof), 1.0, linear, NewtonOptions(max_iterations=30),
+                 Stats())
+    assert res.converged
+    stats = Stats()
+    w, n = _polish(problem, res.w, 1.0, linear, stats)
+    assert n >= 1 and stats.factorizations == 0
+    free = problem.free
+    r0 = np.linalg.norm(problem.residual(res.w, 1.0)[0][free])
+    r1 = np.linalg.norm(problem.residual(w, 1.0)[0][free])
+    assert r1 < 1e-2 * r0
+    # the next correction is below FINAL_UTOL
+    du = linear.solve(-problem.residual(w, 1.0)[0][free])
+    assert np.abs(du[free < problem.nu_dof]).max() <= FINAL_UTOL
+    # nothing applied without iterations, or if the first correction exceeds `first`
+    # (a state not solved to that tolerance): the state is kept
+    same, k = _polish(problem, res.w, 1.0, linear, Stats(), max_iterations=0)
+    assert k == 0 and np.array_equal(same, res.w)
+    same, k = _polish(problem, res.w, 1.0, linear, Stats(), first=1e-300)
+    assert k == 0 and np.array_equal(same, res.w)
 
 
 def test_a_failed_fine_finish_falls_back(monkeypatch):
@@ -79,7 +183,7 @@ def test_a_failed_fine_finish_falls_back(monkeypatch):
     # be reported: the path runs on the fine mesh, and the failed attempt's
     # factorisation is counted with the fine mesh's work
     sheet = Sheet(length=0.8, curvature=2.0)
-    full = solve(sheet, hmax=0.1)
+    full = solve(sheet, hmax=0.1, start="path")
     monkeypatch.setattr(solve_module, "transfer", lambda old, w, new: np.zeros(new.ndof))
     back = solve(sheet, hmax=0.1, start="coarse", coarse_hmax=0.2)
     assert back.coarse_fallback.startswith("fine Newton from the coarse state failed")

@@ -510,3 +510,49 @@ def test_a_point_that_kills_its_worker_is_a_failed_row_and_the_rest_go_on():
     assert by[0.9]["error"] == "WorkerDied" and not by[0.9]["converged"]
     assert "worker process died" in by[0.9]["message"]
     assert all(by[L]["converged"] and by[L]["deflection"] == L for L in (0.5, 0.6, 0.7, 0.8, 1.0))
+
+
+def test_an_old_row_without_start_is_a_path_row_never_reused_for_the_coarse_default(
+        fake, tmp_path):
+    """``start="coarse"`` is solve's default, but keys leave out the frozen key
+    defaults (``start="path"``): a journal line from before ``start`` existed
+    is a path row, reused for ``start="path"`` points only."""
+    assert sw.OPTIONS["start"] == "coarse" and sw._KEY_DEFAULTS["start"] == "path"
+    # every sweepable option has a frozen key default
+    assert set(sw.OPTIONS) == set(sw._KEY_DEFAULTS)
+    coarse_pts, path_pts = grid(length=0.5), grid(length=0.5, start="path")
+    assert point_key(coarse_pts[0]) == point_key({**coarse_pts[0], "start": "coarse"})
+    assert point_key(coarse_pts[0]) != point_key(path_pts[0])
+    # the old key of a point (made before start was an option) is the path point's
+    assert point_key(path_pts[0]) == sw.hash_key(
+        [[k, sw.key_value(path_pts[0][k])] for k in sw.PARAMETERS])
+    table = tmp_path / "t.csv"
+    run_sweep(path_pts, table=table, workers=1, progress=False)
+    assert len(fake.calls) == 1
+    # make its journal line old: no start, no coarse_hmax
+    recs = [json.loads(line) for line in Path(journal_path(table)).read_text().splitlines()]
+    assert [r["start"] for r in recs] == ["path"]
+    for rec in recs:
+        del rec["start"], rec["coarse_hmax"]
+    Path(journal_path(table)).write_text("".join(json.dumps(r) + "\n" for r in recs))
+    again = run_sweep(path_pts, table=table, workers=1, progress=False)
+    assert again.attrs["sweep"]["new"] == 0 and again.start[0] == "path"
+    assert len(fake.calls) == 1
+    coarse = run_sweep(coarse_pts, table=table, workers=1, progress=False)
+    assert coarse.attrs["sweep"]["new"] == 1 and coarse.start[0] == "coarse"
+    assert len(fake.calls) == 2
+    # both rows are in the journal under their own keys
+    assert len(read_journal(journal_path(table))) == 2
+
+
+def test_the_sweep_command_sweeps_the_start(fake, tmp_path):
+    from skfem_sheet.studies.sweep import check_point
+
+    args = ["sweep", "--lengths", "0.5", "--hmax", "0.2", "--workers", "1", "--quiet"]
+    assert main([*args, "--start", "both", "--table", str(tmp_path / "a.csv")]) == 0
+    df = pd.read_csv(tmp_path / "a.csv")
+    assert sorted(df.start) == ["coarse", "path"] and len(fake.calls) == 2
+    assert main([*args, "--table", str(tmp_path / "b.csv")]) == 0
+    assert list(pd.read_csv(tmp_path / "b.csv").start) == ["coarse"]
+    with pytest.raises(ParameterError, match="start"):
+        check_point({"length": 0.5, "start": "fine"})

@@ -17,7 +17,7 @@ from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
-from ..solve import COARSE_HMAX, solve
+from ..solve import COARSE_HMAX, STARTS, solve
 
 __all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
            "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
@@ -74,10 +74,12 @@ def add_solve_args(p, hmax=0.03) -> None:
                    help="solve the whole sheet (admits asymmetric shapes) instead of the "
                         "mirror-symmetric half")
     p.add_argument("--solver", default="auto", help=solver_help())
-    p.add_argument("--start", default="path",
-                   help="path (default): the load path on the mesh --hmax; coarse: the load "
-                        "path on the mesh --coarse-hmax, finished on --hmax by Newton (the "
-                        "fine path runs instead where the coarse one cannot decide the branch)")
+    p.add_argument("--start", default=None, choices=STARTS,
+                   help="coarse (default): the load path on the mesh --coarse-hmax, finished "
+                        "on --hmax by Newton (after a late coarse snap the path resumes on "
+                        "--hmax before it; the whole path runs on --hmax where the coarse "
+                        "one fails); path: the load path on the mesh --hmax (the default "
+                        "with --series, which then holds every load step)")
     p.add_argument("--coarse-hmax", type=float, default=COARSE_HMAX,
                    help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX})")
     p.add_argument("--json", default=None, help="write a JSON summary here")
@@ -173,7 +175,7 @@ def run(args) -> int:
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
                    refine=args.refine, solver=args.solver, symmetric=not args.full_sheet,
                    on_failure="return", progress=not args.quiet, series=series,
-                   start=args.start, coarse_hmax=args.coarse_hmax)
+                   start=_start(args), coarse_hmax=args.coarse_hmax)
     if args.json:
         result.write(args.json)
     if args.vtu:
@@ -190,6 +192,21 @@ def run(args) -> int:
     for f in (args.json, args.vtu, args.png):
         if f:
             print(f"  wrote {f}")
+    if result.coarse_factorizations:
+        print(f"  start {result.start}: {result.factorizations} factorisations on hmax "
+              f"{result.hmax:g}, {result.coarse_factorizations} on the coarse mesh"
+              + (f" (resumed: {result.coarse_resume})" if result.coarse_resume else "")
+              + (f" (ran the path on hmax {result.hmax:g}: {result.coarse_fallback})"
+                 if result.coarse_fallback else ""))
     if pvd:
         print(f"  wrote {pvd} ({len(series)} steps)")
     return 0 if result.converged else 1
+
+
+def _start(args) -> str:
+    """``--start``, by default ``coarse``, or ``path`` with ``--series`` (a
+    series of the whole load path on the mesh asked for)."""
+    start = getattr(args, "start", None)
+    if start is None:
+        start = "path" if getattr(args, "series", None) else "coarse"
+    return start

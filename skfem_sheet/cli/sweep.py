@@ -8,8 +8,8 @@ Examples
 >>> p = argparse.ArgumentParser(); sub = p.add_subparsers(dest="command")
 >>> register(sub)
 >>> args = p.parse_args(["sweep", "--lengths", "1,2", "--table", "x.csv"])
->>> args.lengths, args.paths, args.workers, args.refine, args.symmetric
-('1,2', 'curvature-first', None, '0', 'yes')
+>>> args.lengths, args.paths, args.workers, args.refine, args.symmetric, args.start
+('1,2', 'curvature-first', None, '0', 'yes', 'coarse')
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ __all__ = ["register", "run"]
 
 _PATHS = ("curvature-first", "gravity-first")
 _SYMMETRIC = {"yes": [True], "no": [False], "both": [True, False]}
+_STARTS = {"coarse": ["coarse"], "path": ["path"], "both": ["coarse", "path"]}
 
 
 def register(subparsers) -> None:
@@ -48,6 +49,9 @@ def register(subparsers) -> None:
                    help="nested refinements of each mesh, e.g. 0,1 (0-4, default 0)")
     p.add_argument("--symmetric", default="yes", choices=tuple(_SYMMETRIC),
                    help="solve the symmetric half (yes, default), the whole sheet (no), or both")
+    p.add_argument("--start", default="coarse", choices=tuple(_STARTS),
+                   help="coarse (default): each load path on a coarse mesh, finished on "
+                        "--hmax; path: the whole load path on --hmax; or both (see solve)")
     p.add_argument("--solver", default="auto", help=solver_help(plural=True))
     p.add_argument("--table", required=True, help="results table, .csv or .parquet")
     p.add_argument("--workers", type=int, default=None,
@@ -80,7 +84,7 @@ def run(args) -> int:
                   layers=[None] if args.layers is None else parse_values(args.layers, "--layers",
                                                                            int),
                   solver=solvers, refine=parse_values(args.refine, "--refine", int),
-                  symmetric=_SYMMETRIC[args.symmetric])
+                  symmetric=_SYMMETRIC[args.symmetric], start=_STARTS[args.start])
     for p in points:
         check_point(p)
     check_writable("--table", args.table, [".csv", ".parquet"])

@@ -19,13 +19,19 @@ table and the executors are those of :mod:`skfem_sheet.studies.runner`):
 
 A point is identified by ``key``, a hash of its input parameters (``length,
 tip_width, curvature, thickness, modulus, path, hmax, layers, solver``, and the
-solve options :data:`OPTIONS` -- ``refine``, ``symmetric`` -- when they differ
-from ``solve``'s defaults) after normalisation: numbers are rounded to 10
+solve options :data:`OPTIONS` -- ``refine``, ``symmetric``, ``start``,
+``coarse_hmax`` -- when they differ from their frozen key defaults
+``0, True, "path", 0.1``, which are not all ``solve``'s defaults: ``start``
+is ``"coarse"`` by default, so a point at the defaults has ``start`` in its
+key) after normalisation: numbers are rounded to 10
 significant digits (and ``-0.0`` is ``0.0``, ``2.0`` layers is ``2``), so
 ``1.3``, ``1.30000000001`` and ``np.arange(...)``'s ``1.3000000000000003`` are
 the same point.  The rounded values are the ones solved and stored in the
-table.  A solve option at its default is left out of the point (and of the
-key), so points from before it could be swept keep their keys.  The package
+table.  A solve option at its key default is left out of the key, so points
+from before it could be swept keep their keys, and a journal line without it
+is a row solved with it at that value (an old row without ``start`` is a
+``start="path"`` row, never reused for a point with the default
+``start="coarse"``).  The package
 version is a column, not part of the key: re-running after an upgrade reuses
 old results (start a new table to recompute them).
 
@@ -94,7 +100,7 @@ from ..continuation import PATHS
 from ..linalg import SOLVERS, available_solvers
 from ..mesh import estimate_dofs
 from ..params import ParameterError, Sheet
-from ..solve import MAX_DOFS, Result, solve
+from ..solve import MAX_DOFS, STARTS, Result, solve
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
@@ -136,6 +142,17 @@ _SOLVE_DEFAULTS = {name: p.default for name, p in inspect.signature(solve).param
 OPTIONS = {name: _SOLVE_DEFAULTS[name] for name, _, _ in Result.RECORD_FIELDS
            if name in _SOLVE_DEFAULTS and name not in PARAMETERS}
 
+#: The values of the solve options that a point's key leaves out, frozen: the
+#: defaults ``solve`` had when each option became part of the key.  A journal
+#: line without an option was solved with this value (it predates the option,
+#: or the option was at this value), so a key never changes meaning when a
+#: default of ``solve`` changes: since ``start="coarse"`` became the default,
+#: a point at the default has ``start`` in its key and an old row (solved
+#: along the load path on its own mesh, ``start="path"``) is never reused for
+#: it.  A new option of ``solve`` must be added here with the default it has
+#: when it is added (a test checks that every option is here).
+_KEY_DEFAULTS = {"refine": 0, "symmetric": True, "start": "path", "coarse_hmax": 0.1}
+
 #: Kinds of the outputs of a row (``Result.to_record`` minus the parameters).
 _OUTPUTS = {name: kind for name, kind, _ in Result.RECORD_FIELDS
             if name not in PARAMETERS and name not in OPTIONS}
@@ -173,7 +190,8 @@ def normalize_point(point) -> dict:
     Missing parameters get their defaults (:data:`PARAMETERS`); numbers are
     rounded to 10 significant digits; ``layers`` that are whole numbers become
     ``int``.  The solve options (:data:`OPTIONS`) follow, normalised the same
-    way, only those that differ from their defaults.  Raises ``ParameterError``
+    way, only those that differ from ``solve``'s defaults (the key,
+    :func:`point_key`, is made with the frozen key defaults instead).  Raises ``ParameterError``
     for an unknown parameter name or a missing ``length``.
 
     Examples
@@ -207,6 +225,11 @@ def normalize_point(point) -> dict:
 def point_key(point) -> str:
     """Stable hash (16 hex digits) of a point's normalised input parameters.
 
+    A solve option missing from ``point`` is ``solve``'s default; it is part
+    of the key unless it is at its frozen key default (:data:`_KEY_DEFAULTS`,
+    ``refine=0, symmetric=True, start="path", coarse_hmax=0.1``), so keys of
+    old points stay valid and mean what they meant when they were made.
+
     Examples
     --------
     >>> point_key({"length": 1.3}) == point_key({"length": 1.30000000001, "curvature": -0.0})
@@ -215,10 +238,19 @@ def point_key(point) -> str:
     False
     >>> point_key({"length": 1.3}) == point_key({"length": 1.3, "refine": 0})
     True
+    >>> point_key({"length": 1.3}) == point_key({"length": 1.3, "start": "path"})
+    False
     """
-    p = normalize_point(point)
+    p = {**OPTIONS, **normalize_point(point)}
     return hash_key([[k, key_value(p[k])] for k in PARAMETERS]
-                    + [[k, key_value(p[k])] for k in OPTIONS if k in p])
+                    + [[k, key_value(p[k])] for k in OPTIONS
+                       if not _at_key_default(k, p[k])])
+
+
+def _at_key_default(name, value) -> bool:
+    default = _KEY_DEFAULTS[name]
+    v = _norm_option(value, default)
+    return type(v) is type(default) and v == default
 
 
 def grid(length, tip_width=1.0, curvature=0.0, thickness=0.03, modulus=735.0,
@@ -280,6 +312,8 @@ def check_point(point) -> None:
                              "'skfem_sheet[fast]')")
     if not isinstance(p["symmetric"], (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {p['symmetric']!r}")
+    if p["start"] not in STARTS:
+        raise ParameterError(f"start must be one of {', '.join(STARTS)}, got {p['start']!r}")
     refine = p["refine"]
     n = estimate_dofs(sheet, p["hmax"], p["layers"], half=bool(p["symmetric"]), refine=refine)
     if n > MAX_DOFS:
@@ -323,7 +357,10 @@ _failed = functools.partial(failed_record, _record, point_key)
 
 # -- journal and table ---------------------------------------------------------------------
 def _sweep_key(rec):
-    return point_key({k: rec[k] for k in (*PARAMETERS, *OPTIONS) if k in rec})
+    # an option missing from a journal line is its frozen key default (the line
+    # predates the option), not today's default of solve
+    return point_key({**_KEY_DEFAULTS,
+                      **{k: rec[k] for k in (*PARAMETERS, *OPTIONS) if k in rec}})
 
 
 def read_journal(path, *, key_of=None, required=("length", "deflection", "converged")) -> dict:
@@ -347,8 +384,8 @@ def read_journal(path, *, key_of=None, required=("length", "deflection", "conver
 
 def _frame(records):
     """A DataFrame with the table's columns and dtypes (options missing from
-    older journal lines are their defaults)."""
-    return typed_frame(({**OPTIONS, **r} for r in records), COLUMNS, floats=_of_kind("float"),
+    older journal lines are their frozen key defaults: what they were solved with)."""
+    return typed_frame(({**_KEY_DEFAULTS, **r} for r in records), COLUMNS, floats=_of_kind("float"),
                        ints=_of_kind("int"), bools_or_na=_of_kind("bool?"),
                        bools=_of_kind("bool"), strings=_of_kind("str"))
 
