@@ -581,8 +581,11 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                                     step_options, scale)
                 out.snap_iterations += n_pt
             else:
+                # an intermediate step may leave its MIP factorisation for the
+                # next predictor; the final step's solver must hold the
+                # Hessian for the verdict
                 res = newton(problem, w_pred, g_new, solver, opts, stats,
-                             max_first_increment=guard)
+                             max_first_increment=guard, exact_on_return=final)
             if not res.converged:
                 out.rejected_steps += 1
                 out.rejections.append((name, lam_new, res.reason, res.iterations,

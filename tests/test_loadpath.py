@@ -121,3 +121,30 @@ def test_resume_needs_a_known_phase_and_a_start_state():
     with pytest.raises(ParameterError, match="resume lam"):
         follow_path(problem, "curvature-first", 1.0, solver, w0=np.zeros(problem.ndof),
                     resume=("gravity", 1.5))
+
+
+def test_the_first_snapping_attempt_retries_the_failed_load():
+    """A branch that ends at 0.6: once the steps are cut below snap_step the
+    snap is tried at the load that has just failed (beyond the fold), not at
+    half the step (which may be short of the fold: a settle that does not
+    snap); with snap_at_failure=False, at half the step."""
+    for at_failure in (True, False):
+        calls = []
+        branch = ["first"]
+
+        def attempt(lam, lam_new, snapping, calls=calls, branch=branch):
+            calls.append((lam, lam_new, snapping))
+            if snapping:
+                branch[0] = "second"
+            ok = lam_new <= 0.6 or branch[0] == "second"
+            return Attempt(ok, 2 if ok else 5, "" if ok else "no equilibrium")
+
+        out = ramp(0.0, RampControl(snap_step=0.05, snap_at_failure=at_failure), attempt)
+        assert out.converged and len(out.snapped) == 1
+        i = next(k for k, c in enumerate(calls) if c[2])
+        failed = calls[i - 1][1]
+        assert not calls[i - 1][2] and calls[i][0] == calls[i - 1][0]
+        if at_failure:
+            assert calls[i][1] == failed and out.snapped[0] == failed
+        else:
+            assert calls[i][1] < failed and out.snapped[0] < failed
