@@ -95,6 +95,29 @@ class StepOptions:
     max_escapes : int
         Attempts to leave an unstable equilibrium at one load before the path
         fails.
+    jump_ratio : float
+        Guard on the whole move of a converged (non-snapping) load step: the
+        corrector's move ``|w_new - w_pred|_inf`` (displacements) may not
+        exceed ``max(jump_ratio * |w_pred - w|_inf, jump_floor * max(1, L))``.
+        On a smooth branch the correction is second order in the step and the
+        prediction first order; a step whose Newton converged onto another
+        branch (across a fold) moves O(1) whatever the step.  Such a step is
+        rejected, so that the ramp cuts it until the fold is settled and
+        recorded as a snap.  A huge value (say 1e9) switches the guard off.
+    jump_floor : float
+        The guard's floor (units of a, times the sheet length when it is
+        longer than 1): corrections below it are always accepted, so that a
+        smooth branch cannot be rejected forever as the steps shrink.
+    max_move : float
+        The second half of the guard: a converged non-snapping step that moves
+        a node further than this (units of a, times the sheet length when it
+        is longer than 1) is rejected and cut.  Near a fold the tangent is
+        nearly singular and the predictor itself points far along the snap
+        mode, so a Newton that converges there has snapped without the
+        corrector moving much more than predicted; cut below ``snap_step``,
+        the step is settled and the snap recorded (a move of more than
+        ``0.1 max(1, L)`` inside a load step below ``snap_step`` is what
+        :func:`follow_path` calls a snap).
     """
 
     initial_step: float = 0.25
@@ -111,6 +134,9 @@ class StepOptions:
     snap_iterations: int = 80
     verify: bool = True
     max_escapes: int = 2
+    jump_ratio: float = 1.0
+    jump_floor: float = 0.05
+    max_move: float = 0.25
 
     def __post_init__(self):
         check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
@@ -121,6 +147,9 @@ class StepOptions:
         check_range("snap_radius", self.snap_radius, 0, None, lo_open=True)
         check_range("snap_iterations", self.snap_iterations, 1, 1000)
         check_range("max_escapes", self.max_escapes, 0, 10)
+        check_range("jump_ratio", self.jump_ratio, 0, None, lo_open=True)
+        check_range("jump_floor", self.jump_floor, 0, None, lo_open=True)
+        check_range("max_move", self.max_move, 0, None, lo_open=True)
         if self.predictor not in ("tangent", "hermite"):
             raise ParameterError(f"predictor must be 'tangent' or 'hermite', got {self.predictor!r}")
 
@@ -141,6 +170,9 @@ class PathOutcome:
     stable: object = None  # inertia verdict at the end state (None: not known)
     negative_eigenvalues: object = None
     snap_iterations: int = 0  # Newton-type iterations spent in pseudo-transient settles
+    # (phase, lam tried, predicted move, corrector move, whole move, accepted) of every converged
+    # non-snapping step: the data of the jump guard (StepOptions.jump_ratio)
+    moves: list = field(default_factory=list)
 
 
 def load_phases(path: str, kappa: float):
@@ -593,6 +625,31 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 have_factor = False  # the failed attempt's factorisation is useless
                 return Attempt(False, res.iterations, res.reason)
             w_new = res.w
+            nu = problem.nu_dof
+            if not snapping:
+                # the guard on the whole move: a corrector that moves much further
+                # than the predictor has converged onto another branch
+                predicted = float(np.abs(w_pred[:nu] - w[:nu]).max())
+                corrected = float(np.abs(w_new[:nu] - w_pred[:nu]).max())
+                moved = float(np.abs(w_new[:nu] - w[:nu]).max())
+                limit = max(step_options.jump_ratio * predicted,
+                            step_options.jump_floor * scale)
+                why = ""
+                if corrected > limit:
+                    why = (f"the corrector moved {corrected:.3g} against a predicted "
+                           f"{predicted:.3g} (limit {limit:.3g}): a jump of branch "
+                           f"inside the step")
+                elif moved > step_options.max_move * scale:
+                    why = (f"the step moved {moved:.3g} (more than "
+                           f"{step_options.max_move * scale:.3g}): a jump of branch "
+                           f"inside the step unless it is settled as a snap")
+                out.moves.append((name, lam_new, predicted, corrected, moved, not why))
+                if why:
+                    out.rejected_steps += 1
+                    out.rejections.append((name, lam_new, why, res.iterations,
+                                           res.corrections))
+                    have_factor = False  # factorised on the other branch
+                    return Attempt(False, res.iterations, why)
             if snapping:
                 if step_options.verify:
                     # the settle is drawn to stable states, but check
@@ -605,7 +662,6 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                                        f"{lam_new:.4g} of its range: {msg}")
                 # a snap only if the sheet really left its branch; the
                 # damped iteration may also settle just short of the fold
-                nu = problem.nu_dof
                 # (a load step below snap_step moves nodes by a few 1e-2 at most)
                 if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
                     out.snaps.append((name, lam_new, k_new, g_new))
