@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet, newton
-from skfem_sheet.continuation import follow_path
+from skfem_sheet.continuation import StepOptions, follow_path
 from skfem_sheet.engine import corrector, transient
 from skfem_sheet.engine.loadpath import Attempt, RampControl, growth, ramp
 from skfem_sheet.linalg import make_linear_solver
@@ -148,3 +148,35 @@ def test_the_first_snapping_attempt_retries_the_failed_load():
             assert calls[i][1] == failed and out.snapped[0] == failed
         else:
             assert calls[i][1] < failed and out.snapped[0] < failed
+
+
+def test_the_jump_guard_options_are_checked():
+    for name in ("jump_ratio", "jump_floor", "max_move"):
+        with pytest.raises(ParameterError, match=name):
+            StepOptions(**{name: 0.0})
+        with pytest.raises(ParameterError, match=name):
+            StepOptions(**{name: float("nan")})
+
+
+def test_a_smooth_step_corrects_to_second_order_and_passes_the_jump_guard():
+    """The premise of the jump guard (``StepOptions.jump_ratio``): on a smooth
+    branch the tangent predictor is first order in the step and the
+    corrector's move second order, so halving the first step (predicted from
+    the exact tangent at the reference state) halves the predicted move and
+    cuts the correction by about four; a whole path on a branch without folds
+    is never cut by the guard."""
+    problem = build_problem(Sheet(length=0.8, tip_width=0.8, curvature=2.0), 0.2, None, 2,
+                            half=True)
+    first = []
+    for step in (0.25, 0.125, 0.0625):
+        out = follow_path(problem, "curvature-first", 2.0, make_linear_solver("auto"),
+                          step_options=StepOptions(initial_step=step))
+        assert out.converged and out.stable is True and not out.snaps
+        assert out.rejected_steps == 0 and all(m[-1] for m in out.moves)
+        assert len(out.moves) == len(out.steps)
+        name, lam, predicted, corrected, moved, _ = out.moves[0]
+        assert (name, lam) == ("curvature", step)
+        first.append((predicted, corrected))
+    for (p0, c0), (p1, c1) in zip(first, first[1:]):
+        assert p1 / p0 == pytest.approx(0.5, rel=0.05)
+        assert c1 / c0 < 0.35

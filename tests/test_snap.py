@@ -209,3 +209,23 @@ def test_mip_newton_snaps_to_the_same_state_with_fewer_iterations():
     assert mip.deflection == pytest.approx(exact.deflection, abs=1e-6)
     assert mip.newton_iterations < 0.8 * exact.newton_iterations
     assert mip.factorizations < exact.factorizations
+
+
+@pytest.mark.parametrize("linearization", ["exact", "mip"])
+def test_a_fold_crossed_inside_a_load_step_is_cut_and_recorded_as_a_snap(linearization):
+    """The jump guard (``StepOptions.jump_ratio``, ``max_move``) with either
+    Newton.  Without it, at hmax 0.1, this sheet's gravity-first path crossed
+    the fold of the drooped branch inside curvature steps whose corrector
+    moved up to 6x the predicted move, and ended standing (d < 0) with no
+    snap and the label "gravity-dominated"; at hmax 0.03 the path records the
+    snap at 0.785 of the curvature ramp.  With the guard the steps that jump
+    branch are rejected, the fold is settled as a snap near the fine mesh's
+    load, and the label is right."""
+    r = solve(Sheet(length=1.4739, tip_width=0.7112, curvature=4.8448), path="gravity-first",
+              hmax=0.1, newton_options=NewtonOptions(linearization=linearization),
+              on_failure="return")
+    assert r.converged and r.stable is True and r.negative_eigenvalues == 0
+    assert r.deflection < 0  # standing: the tip above the clamp
+    assert len(r.snaps) >= 1 and r.snaps[0][0] == "curvature"
+    assert 0.7 < r.snaps[0][1] < 0.85
+    assert r.branch == "curvature-dominated"
