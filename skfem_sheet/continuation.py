@@ -117,10 +117,10 @@ class StepOptions:
         corrector moving much more than predicted; cut below ``snap_step``,
         the step is settled and the snap recorded (a move of more than
         ``0.1 max(1, L)`` inside a load step below ``snap_step`` is what
-        :func:`follow_path` calls a snap).  0.15: the largest value at which
-        every snap that exact Newton recorded in the stress benchmark at
-        hmax 0.1 is recorded with the MIP Newton
-        (``benchmarks/results/stress_n100_seed1_hmax0.1_guard.txt``).  Not in
+        :func:`follow_path` calls a snap).  0.15: with 0.25 the MIP Newton
+        still crossed three folds that exact Newton recorded in the stress
+        benchmark at hmax 0.1 (whole moves of 0.19-0.22 max(1, L) in one
+        step; ``benchmarks/results/stress_n100_seed1_hmax0.1_guard.txt``).  Not in
         the first phase of a path, which has no fold (gravity on a flat
         clamp, or curvature without gravity) and no snapping: there a steep
         branch would only cost steps.
