@@ -104,10 +104,17 @@ class StepOptions:
         branch (across a fold) moves O(1) whatever the step.  Such a step is
         rejected, so that the ramp cuts it until the fold is settled and
         recorded as a snap.  A huge value (say 1e9) switches the guard off.
+        1.0: on smooth branches the corrector moved 0.03-0.8 of the
+        prediction (a step of 0.25 from a strongly bent state, or a
+        prediction with the MIP factorisation the previous step left
+        behind); the silent crossing of L 1.4739, a/R 4.8448 gravity-first at
+        hmax 0.1 moved 1.2-6.2 times the prediction in each of its steps.
     jump_floor : float
         The guard's floor (units of a, times the sheet length when it is
         longer than 1): corrections below it are always accepted, so that a
-        smooth branch cannot be rejected forever as the steps shrink.
+        smooth branch cannot be rejected forever as the steps shrink (its
+        correction falls as the square of the step).  0.05: half the move
+        that :func:`follow_path` calls a snap.
     max_move : float
         The second half of the guard: a converged non-snapping step that moves
         a node further than this (units of a, times the sheet length when it
