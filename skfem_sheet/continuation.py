@@ -540,7 +540,14 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     ``StepOptions.snap_step`` the followed branch is taken to end at a fold:
     the next step is settled by :func:`~skfem_sheet.newton.pseudo_transient`
     (a loose, inertia-controlled settle) and a Newton solve, and a jump of
-    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  With
+    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  A Newton that
+    converges across a fold inside an ordinary step would skip that record
+    (and label the branch wrongly): the jump guard
+    (``StepOptions.jump_ratio``, ``jump_floor``, ``max_move``) rejects a
+    converged step whose corrector moved much further than its predictor,
+    or (after the first phase) whose whole move is large, so that the ramp
+    cuts it down to ``snap_step`` and settles it; ``PathOutcome.moves``
+    holds the guard's data of every converged step.  With
     ``StepOptions.verify`` (default) the inertia is read after every such
     settle and at full load; an unstable equilibrium is perturbed along its
     unstable eigenvector and settled again (a snap at full load is recorded
