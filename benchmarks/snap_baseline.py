@@ -5,6 +5,7 @@ with reproducible arithmetic (one thread, ``MKL_CBWR=COMPATIBLE``).
 Usage::
 
     python benchmarks/snap_baseline.py OUT.jsonl            # run the set
+    python benchmarks/snap_baseline.py OUT.jsonl --options '{"newton": {"linearization": "mip"}}'
     python benchmarks/snap_baseline.py --compare A.jsonl B.jsonl
 
 ``--compare`` prints both runs side by side, the relative change of d, and the
@@ -42,10 +43,18 @@ CASES = [
 CHILD = """
 import json, sys, time
 from skfem_sheet import Sheet, solve
+from skfem_sheet.continuation import StepOptions
+from skfem_sheet.newton import NewtonOptions
 spec = json.loads(sys.argv[1])
+opts = spec["options"]
+kw = dict(spec["kw"])
+if "newton" in opts:
+    kw["newton_options"] = NewtonOptions(**opts["newton"])
+if "step" in opts:
+    kw["step_options"] = StepOptions(**opts["step"])
 t = time.perf_counter()
 r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return",
-          **spec["kw"])
+          **kw)
 print(json.dumps(dict(d=r.deflection, converged=r.converged, stable=r.stable, branch=r.branch,
                       newton_iterations=r.newton_iterations, factorizations=r.factorizations,
                       snaps=[list(s) for s in r.snaps], wall_s=time.perf_counter() - t)))
@@ -54,11 +63,15 @@ print(json.dumps(dict(d=r.deflection, converged=r.converged, stable=r.stable, br
 ENV = dict(MKL_CBWR="COMPATIBLE", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
 
 
-def run(out, root=ROOT):
+def run(out, root=ROOT, options=None):
+    """Run every case in a fresh process; ``options`` (a dict with keys
+    ``"newton"`` and/or ``"step"``) are passed to ``NewtonOptions`` /
+    ``StepOptions`` of every solve."""
     env = dict(os.environ, PYTHONPATH=root, **ENV)
     with open(out, "w") as fh:
         for name, sheet, path, hmax, kw in CASES:
-            spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax, kw=kw))
+            spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax, kw=kw,
+                                   options=options or {}))
             p = subprocess.run([sys.executable, "-c", CHILD, spec], cwd=root, env=env,
                                capture_output=True, text=True)
             if p.returncode:
@@ -96,4 +109,10 @@ if __name__ == "__main__":
     if sys.argv[1] == "--compare":
         compare(sys.argv[2], sys.argv[3])
     else:
-        run(sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ROOT)
+        args = sys.argv[2:]
+        options = None
+        if "--options" in args:
+            i = args.index("--options")
+            options = json.loads(args[i + 1])
+            del args[i:i + 2]
+        run(sys.argv[1], args[0] if args else ROOT, options)

@@ -95,6 +95,42 @@ class StepOptions:
     max_escapes : int
         Attempts to leave an unstable equilibrium at one load before the path
         fails.
+    jump_ratio : float
+        Guard on the whole move of a converged (non-snapping) load step: the
+        corrector's move ``|w_new - w_pred|_inf`` (displacements) may not
+        exceed ``max(jump_ratio * |w_pred - w|_inf, jump_floor * max(1, L))``.
+        On a smooth branch the correction is second order in the step and the
+        prediction first order; a step whose Newton converged onto another
+        branch (across a fold) moves O(1) whatever the step.  Such a step is
+        rejected, so that the ramp cuts it until the fold is settled and
+        recorded as a snap.  A huge value (say 1e9) switches the guard off.
+        1.0: on smooth branches the corrector moved 0.03-0.8 of the
+        prediction (a step of 0.25 from a strongly bent state, or a
+        prediction with the MIP factorisation the previous step left
+        behind); the silent crossing of L 1.4739, a/R 4.8448 gravity-first at
+        hmax 0.1 moved 1.2-6.2 times the prediction in each of its steps.
+    jump_floor : float
+        The guard's floor (units of a, times the sheet length when it is
+        longer than 1): corrections below it are always accepted, so that a
+        smooth branch cannot be rejected forever as the steps shrink (its
+        correction falls as the square of the step).  0.05: half the move
+        that :func:`follow_path` calls a snap.
+    max_move : float
+        The second half of the guard: a converged non-snapping step that moves
+        a node further than this (units of a, times the sheet length when it
+        is longer than 1) is rejected and cut.  Near a fold the tangent is
+        nearly singular and the predictor itself points far along the snap
+        mode, so a Newton that converges there has snapped without the
+        corrector moving much more than predicted; cut below ``snap_step``,
+        the step is settled and the snap recorded (a move of more than
+        ``0.1 max(1, L)`` inside a load step below ``snap_step`` is what
+        :func:`follow_path` calls a snap).  0.15: with 0.25 the MIP Newton
+        still crossed three folds that exact Newton recorded in the stress
+        benchmark at hmax 0.1 (whole moves of 0.19-0.22 max(1, L) in one
+        step; ``benchmarks/results/stress_n100_seed1_hmax0.1_guard.txt``).  Not in
+        the first phase of a path, which has no fold (gravity on a flat
+        clamp, or curvature without gravity) and no snapping: there a steep
+        branch would only cost steps.
     """
 
     initial_step: float = 0.25
@@ -111,6 +147,9 @@ class StepOptions:
     snap_iterations: int = 80
     verify: bool = True
     max_escapes: int = 2
+    jump_ratio: float = 1.0
+    jump_floor: float = 0.05
+    max_move: float = 0.15
 
     def __post_init__(self):
         check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
@@ -121,6 +160,9 @@ class StepOptions:
         check_range("snap_radius", self.snap_radius, 0, None, lo_open=True)
         check_range("snap_iterations", self.snap_iterations, 1, 1000)
         check_range("max_escapes", self.max_escapes, 0, 10)
+        check_range("jump_ratio", self.jump_ratio, 0, None, lo_open=True)
+        check_range("jump_floor", self.jump_floor, 0, None, lo_open=True)
+        check_range("max_move", self.max_move, 0, None, lo_open=True)
         if self.predictor not in ("tangent", "hermite"):
             raise ParameterError(f"predictor must be 'tangent' or 'hermite', got {self.predictor!r}")
 
@@ -141,6 +183,9 @@ class PathOutcome:
     stable: object = None  # inertia verdict at the end state (None: not known)
     negative_eigenvalues: object = None
     snap_iterations: int = 0  # Newton-type iterations spent in pseudo-transient settles
+    # (phase, lam tried, predicted move, corrector move, whole move, accepted) of every converged
+    # non-snapping step: the data of the jump guard (StepOptions.jump_ratio)
+    moves: list = field(default_factory=list)
 
 
 def load_phases(path: str, kappa: float):
@@ -495,7 +540,14 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     ``StepOptions.snap_step`` the followed branch is taken to end at a fold:
     the next step is settled by :func:`~skfem_sheet.newton.pseudo_transient`
     (a loose, inertia-controlled settle) and a Newton solve, and a jump of
-    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  With
+    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  A Newton that
+    converges across a fold inside an ordinary step would skip that record
+    (and label the branch wrongly): the jump guard
+    (``StepOptions.jump_ratio``, ``jump_floor``, ``max_move``) rejects a
+    converged step whose corrector moved much further than its predictor,
+    or (after the first phase) whose whole move is large, so that the ramp
+    cuts it down to ``snap_step`` and settles it; ``PathOutcome.moves``
+    holds the guard's data of every converged step.  With
     ``StepOptions.verify`` (default) the inertia is read after every such
     settle and at full load; an unstable equilibrium is perturbed along its
     unstable eigenvector and settled again (a snap at full load is recorded
@@ -581,8 +633,11 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                                     step_options, scale)
                 out.snap_iterations += n_pt
             else:
+                # an intermediate step may leave its MIP factorisation for the
+                # next predictor; the final step's solver must hold the
+                # Hessian for the verdict
                 res = newton(problem, w_pred, g_new, solver, opts, stats,
-                             max_first_increment=guard)
+                             max_first_increment=guard, exact_on_return=final)
             if not res.converged:
                 out.rejected_steps += 1
                 out.rejections.append((name, lam_new, res.reason, res.iterations,
@@ -590,6 +645,31 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 have_factor = False  # the failed attempt's factorisation is useless
                 return Attempt(False, res.iterations, res.reason)
             w_new = res.w
+            nu = problem.nu_dof
+            if not snapping:
+                # the guard on the whole move: a corrector that moves much further
+                # than the predictor has converged onto another branch
+                predicted = float(np.abs(w_pred[:nu] - w[:nu]).max())
+                corrected = float(np.abs(w_new[:nu] - w_pred[:nu]).max())
+                moved = float(np.abs(w_new[:nu] - w[:nu]).max())
+                limit = max(step_options.jump_ratio * predicted,
+                            step_options.jump_floor * scale)
+                why = ""
+                if corrected > limit:
+                    why = (f"the corrector moved {corrected:.3g} against a predicted "
+                           f"{predicted:.3g} (limit {limit:.3g}): a jump of branch "
+                           f"inside the step")
+                elif iphase > 0 and moved > step_options.max_move * scale:
+                    why = (f"the step moved {moved:.3g} (more than "
+                           f"{step_options.max_move * scale:.3g}): a jump of branch "
+                           f"inside the step unless it is settled as a snap")
+                out.moves.append((name, lam_new, predicted, corrected, moved, not why))
+                if why:
+                    out.rejected_steps += 1
+                    out.rejections.append((name, lam_new, why, res.iterations,
+                                           res.corrections))
+                    have_factor = False  # factorised on the other branch
+                    return Attempt(False, res.iterations, why)
             if snapping:
                 if step_options.verify:
                     # the settle is drawn to stable states, but check
@@ -602,7 +682,6 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                                        f"{lam_new:.4g} of its range: {msg}")
                 # a snap only if the sheet really left its branch; the
                 # damped iteration may also settle just short of the fold
-                nu = problem.nu_dof
                 # (a load step below snap_step moves nodes by a few 1e-2 at most)
                 if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
                     out.snaps.append((name, lam_new, k_new, g_new))

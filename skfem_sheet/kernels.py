@@ -31,7 +31,8 @@ import numpy as np
 
 __all__ = ["clamp_displacement", "clamp_displacement_rate", "kinematics", "det_inv",
            "first_piola", "element_residuals", "element_tangent_blocks",
-           "strain_energy_density", "first_invariant"]
+           "strain_energy_density", "first_invariant", "second_piola",
+           "second_piola_increment", "linearised_stress_defect"]
 
 
 def clamp_displacement(y, z, kappa):
@@ -139,7 +140,7 @@ def element_residuals(F, p, mu, dphi, psi, wq, R):
     return float(J.min())
 
 
-def element_tangent_blocks(F, p, mu, dphi, psi, wq, Kb, Kpu, chunk=256):
+def element_tangent_blocks(F, p, mu, dphi, psi, wq, Kb, Kpu, chunk=256, dS=None):
     """The state-dependent part of the element tangents (the Hessian of
     ``Pi``), written in place.
 
@@ -150,6 +151,11 @@ def element_tangent_blocks(F, p, mu, dphi, psi, wq, Kb, Kpu, chunk=256):
     ``Kpu[c, a, i] = -int J b_ai psi_c``, with the spatial gradients
     ``b_a = F^{-T} grad phi_a``.  The two 30 x 30 products and their
     rearrangement into blocks run on ``chunk`` elements at a time, in cache.
+
+    ``dS`` (nel, nq, 3, 3), optional: a symmetric stress defect added to the
+    stress of the geometric stiffness, ``Kb[a, b, i, i] += int grad phi_a . dS
+    grad phi_b`` (the mixed-integration-point linearisation, see
+    :func:`linearised_stress_defect`); ``None`` gives the exact Hessian.
     """
     J, Finv = det_inv(F)
     nel, nq = J.shape
@@ -169,6 +175,58 @@ def element_tangent_blocks(F, p, mu, dphi, psi, wq, Kb, Kpu, chunk=256):
                y2.reshape(-1, 10, 3, 10, 3).transpose(0, 1, 3, 4, 2), out=Kb[lo:hi])
     np.matmul(psi.transpose(0, 2, 1), -(wq * J)[..., None] * bs,
               out=Kpu.reshape(nel, 4, 30))
+    if dS is not None:
+        # G_ab = sum_q w_q dphi_aJ dS_JL dphi_bL, on the diagonal i = k
+        G = np.matmul(np.matmul(dphi, wq[..., None, None] * dS),
+                      dphi.transpose(0, 1, 3, 2)).sum(1)
+        for i in range(3):
+            Kb[:, :, :, i, i] += G
+
+
+def second_piola(F, p, mu):
+    """Second Piola-Kirchhoff stress ``S = F^{-1} P = mu I - (mu + p J) C^{-1}``
+    (``C = F^T F``) of the energy density of :func:`first_piola`."""
+    J, Finv = det_inv(F)
+    Cinv = np.matmul(Finv, np.swapaxes(Finv, -1, -2))
+    S = -(mu + p * J)[..., None, None] * Cinv
+    S[..., 0, 0] += mu
+    S[..., 1, 1] += mu
+    S[..., 2, 2] += mu
+    return S
+
+
+def second_piola_increment(F, p, mu, dF, dp):
+    """Directional derivative of :func:`second_piola` at ``(F, p)`` along
+    ``(dF, dp)``::
+
+        dS = -(dp J + p dJ) C^{-1} + (mu + p J) C^{-1} dC C^{-1},
+        dJ = J tr(F^{-1} dF),  dC = dF^T F + F^T dF.
+    """
+    J, Finv = det_inv(F)
+    Cinv = np.matmul(Finv, np.swapaxes(Finv, -1, -2))
+    dJ = J * np.einsum("...ij,...ji->...", Finv, dF)
+    FtdF = np.matmul(np.swapaxes(F, -1, -2), dF)
+    dC = FtdF + np.swapaxes(FtdF, -1, -2)
+    return (-(dp * J + p * dJ)[..., None, None] * Cinv
+            + (mu + p * J)[..., None, None] * np.matmul(np.matmul(Cinv, dC), Cinv))
+
+
+def linearised_stress_defect(F0, p0, F, p, mu):
+    """Stress defect of a mixed-integration-point (MIP) Newton step.
+
+    Magisano, Leonetti & Garcea (CMAME 2017) treat the stress at the
+    quadrature points as an independent variable of the linearisation: after
+    a Newton correction from ``(F0, p0)`` to ``(F, p)`` the stress is the
+    *linearised* one, ``S0 + dS(F0, p0)[F - F0, p - p0]``, not ``S(F, p)``.
+    The difference is second order in the correction; for a thin sheet it is
+    the spurious membrane stress of a finite rotation of a linearised
+    bending step, which makes the exact tangent at the new iterate far too
+    stiff along that rotation.  Returns ``S0 + dS - S(F, p)``, to be passed
+    as ``dS`` to :func:`element_tangent_blocks` (the residual is unchanged,
+    so the converged state is that of exact Newton).
+    """
+    return (second_piola(F0, p0, mu) + second_piola_increment(F0, p0, mu, F - F0, p - p0)
+            - second_piola(F, p, mu))
 
 
 def strain_energy_density(F, p, mu):

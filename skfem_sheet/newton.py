@@ -28,7 +28,7 @@ from .engine import transient
 from .engine.corrector import Tolerances, correct
 from .engine.protocol import Counting, EngineFailure, Problem
 from .linalg import LinearSolverError
-from .params import check_range
+from .params import ParameterError, check_range
 
 __all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient", "timed"]
 
@@ -48,18 +48,43 @@ class NewtonOptions:
     max_halvings : int
         Step halvings on trial points with an inverted element (or NaN)
         before the iteration fails.
+    linearization : {"mip", "exact"}
+        The matrix of the Newton corrections: from the second iteration on,
+        the mixed-integration-point linearisation (default;
+        :meth:`SheetProblem.tangent` with ``w_ref``, the previous iterate),
+        whose geometric stiffness carries the stress linearised from the
+        previous iterate (Magisano, Leonetti & Garcea, CMAME 2017), or the
+        exact tangent (the Hessian of the energy) at every iteration.  The
+        residual, hence the converged state, is the same; on thin sheets MIP
+        needs about a third fewer iterations (issue 17:
+        ``benchmarks/results/snap_mip_issue17_hmax0.08.txt``).  A converged solve always leaves the exact tangent factorised
+        (at the converged state if the last linearisation was a MIP one: one
+        more factorisation, not a Newton iteration), so that inertia checks
+        and tangent predictors see the Hessian.
+    mip_threshold : float
+        With ``"mip"``: the MIP matrix is used only after a step longer than
+        this (largest nodal displacement, units of a); after shorter steps
+        the stress defect (second order in the step) is negligible and the
+        exact tangent is used, so a solve that converges quickly ends on an
+        exact factorisation and needs no refactorisation for its inertia.
     """
 
     rtol: float = 1e-4
     utol: float = 1e-6
     max_iterations: int = 8
     max_halvings: int = 6
+    linearization: str = "mip"
+    mip_threshold: float = 2e-3
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
         check_range("utol", self.utol, 0, 1, lo_open=True)
         check_range("max_iterations", self.max_iterations, 1, 1000)
         check_range("max_halvings", self.max_halvings, 0, 60)
+        if self.linearization not in ("exact", "mip"):
+            raise ParameterError("linearization must be 'exact' or 'mip', got "
+                                 f"{self.linearization!r}")
+        check_range("mip_threshold", self.mip_threshold, 0, 1)
 
 
 @dataclass
@@ -112,6 +137,8 @@ class _SheetNewton(Problem):
         self.rref = float(np.linalg.norm(problem.gravity_load[self.free]))
         self.last = (None, None)  # (state, residual) of the last admissible point
         self.residuals = []
+        self.previous = None  # the previous linearisation point (MIP reference)
+        self.exact = True  # whether the last factorisation is the exact tangent's
 
     def evaluate(self, w):
         """The residual at ``w`` if ``w`` is admissible (no inverted element,
@@ -140,7 +167,13 @@ class _SheetNewton(Problem):
         rn = float(np.linalg.norm(r[self.free]))
         if not np.isfinite(rn):
             raise EngineFailure("NaN in the residual")
-        K = timed(self.stats, "assembly_s", self.problem.tangent, w)
+        ref = self.previous if self.options.linearization == "mip" else None
+        if ref is not None and not (np.abs(w[: self.problem.nu_dof] - ref[: self.problem.nu_dof]).max()
+                                    > self.options.mip_threshold):
+            ref = None
+        K = timed(self.stats, "assembly_s", self.problem.tangent, w, ref)
+        self.exact = ref is None
+        self.previous = w
         try:
             timed(self.stats, "linear_solve_s", self.solver.factorize, K, w)
             delta = self.back_solve(r)
@@ -166,11 +199,17 @@ class _SheetNewton(Problem):
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-           max_first_increment=np.inf) -> NewtonResult:
+           max_first_increment=np.inf, reference=None, exact_on_return=True) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
-    the sheet.  Full Newton steps, halved only where a trial point has an
+    the sheet.  The first correction is made with the exact tangent, the
+    later ones with ``options.linearization`` (by default the
+    mixed-integration-point matrix, whose geometric stiffness carries the
+    stress linearised from the previous iterate: a bending step of a thin
+    sheet no longer leaves the spurious membrane stress of its linearised
+    rotation in the next tangent, which made the corrections alternate
+    large/small).  Full Newton steps, halved only where a trial point has an
     inverted element (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard
     natural-monotonicity) line search was tried and rejected: a bending step
     of a thin sheet leaves a large membrane residual that the *next* full
@@ -199,6 +238,17 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     max_first_increment : float
         Reject the attempt if the first correction moves a node further than
         this: a guard against jumping to another branch after a large step.
+    reference : ndarray, optional
+        With ``options.linearization == "mip"``: the state that ``w`` was
+        predicted from (the accepted state of a load step), the reference of
+        the first linearisation (default: the exact tangent at ``w`` first).
+    exact_on_return : bool
+        With ``options.linearization == "mip"``: if the last linearisation of
+        a converged solve was a MIP one, factorise the exact tangent at the
+        converged state before returning (one more factorisation), so that
+        the solver holds the Hessian for an inertia check.  ``False`` where
+        no inertia is read before the next solve (an intermediate load step,
+        whose tangent predictor may use the MIP factorisation).
 
     Returns
     -------
@@ -208,6 +258,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         "singular tangent", "first correction too large") otherwise.
     """
     sheet = _SheetNewton(problem, g, solver, options, stats)
+    sheet.previous = reference
     w = np.array(w, dtype=float)
     r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1
@@ -221,6 +272,16 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     start = stats.newton_iterations
     res = correct(Counting(sheet), w, np.array([float(g)]), sheet.linearize, tol,
                   sheet.admissible, converged=sheet.converged)
+    if res.converged and not sheet.exact and exact_on_return:
+        # leave the Hessian factorised: the callers read inertia and predict with it
+        K = timed(stats, "assembly_s", problem.tangent, res.u)
+        try:
+            timed(stats, "linear_solve_s", solver.factorize, K, res.u)
+        except LinearSolverError as err:
+            return NewtonResult(res.u, False, stats.newton_iterations - start,
+                                f"singular tangent at the converged state ({err})",
+                                sheet.residuals)
+        stats.factorizations += 1
     corrections = [dn for _, dn in res.history]
     reason = "inverted element" if res.reason.startswith("inadmissible") else res.reason
     return NewtonResult(res.u, res.converged, stats.newton_iterations - start, reason,
@@ -270,7 +331,7 @@ class _SheetTransient(transient.TransientSystem):
 
 def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,
                      shift=100.0, max_iterations=80, radius=0.1, negatives=None,
-                     sigma_floor=1e-2) -> NewtonResult:
+                     sigma_floor=1e-2, max_decrease=64.0) -> NewtonResult:
     """Pseudo-transient continuation to a stable equilibrium at gravity ``g``.
 
     The engine's iteration (:func:`skfem_sheet.engine.transient.pseudo_transient`,
@@ -307,6 +368,10 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
         is not checked.
     sigma_floor : float
         Smallest non-zero shift.
+    max_decrease : float
+        Largest division of the shift after a full step that is much shorter
+        than ``radius`` (the engine's default quartering is 4; 64 lets the
+        shift fall from the 1e5-1e6 reached during a snap in a few steps).
 
     Returns
     -------
@@ -318,7 +383,8 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
     res = transient.pseudo_transient(system, w, utol=options.utol, shift=shift,
                                      max_iterations=max_iterations, radius=radius,
                                      sigma_floor=sigma_floor,
-                                     max_halvings=options.max_halvings)
+                                     max_halvings=options.max_halvings,
+                                     max_decrease=max_decrease)
     reason = {"inadmissible initial state": "inverted element in the initial guess",
               "inadmissible trial states": "inverted element"}.get(res.reason, res.reason)
     return NewtonResult(res.u, res.converged, res.iterations, reason, list(res.residuals),

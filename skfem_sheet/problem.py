@@ -24,6 +24,7 @@ from .kernels import (
     element_tangent_blocks,
     first_invariant,
     kinematics,
+    linearised_stress_defect,
     strain_energy_density,
 )
 from .mesh import SheetMesh
@@ -202,12 +203,18 @@ class SheetProblem:
         r += g * self.gravity_load
         return r, Jmin
 
-    def _element_blocks(self, w, sel, Kb, Kpu):
+    def _element_blocks(self, w, sel, Kb, Kpu, w_ref=None):
         """:func:`~skfem_sheet.kernels.element_tangent_blocks` of the elements
-        ``sel`` (a slice or an index array) into ``Kb``, ``Kpu``."""
+        ``sel`` (a slice or an index array) into ``Kb``, ``Kpu``; with the
+        stress defect of the step from ``w_ref`` to ``w`` if given."""
         F, p = self._fields(w, sel)
+        dS = None
+        if w_ref is not None:
+            F0, p0 = self._fields(w_ref, sel)
+            dS = linearised_stress_defect(F0, p0, F, p, self.mu)
         s = self.space
-        element_tangent_blocks(F, p, self.mu, s.dphi[sel], s.phi1[sel], s.dx[sel], Kb, Kpu)
+        element_tangent_blocks(F, p, self.mu, s.dphi[sel], s.phi1[sel], s.dx[sel], Kb, Kpu,
+                               dS=dS)
 
     def element_matrices(self, w, elements=None):
         """Element tangents, shape (nel, 34, 34): the Hessian of Pi.
@@ -250,8 +257,15 @@ class SheetProblem:
                 self._constants["mass"] = asm_.gather()
         return self._constants["mass"]
 
-    def tangent(self, w):
+    def tangent(self, w, w_ref=None):
         """Reduced tangent ``K_ff`` (free dofs) as a CSR matrix.
+
+        With ``w_ref`` (the previous Newton iterate), the mixed-integration-point
+        linearisation instead of the Hessian: the geometric stiffness carries
+        the stress linearised from ``w_ref``, not the stress at ``w``
+        (:func:`~skfem_sheet.kernels.linearised_stress_defect`).  Only for
+        Newton corrections of a load path; inertia, folds and continuation
+        need the Hessian (``w_ref=None``, the default).
 
         Its sparsity pattern is fixed for the problem's lifetime, and the zero
         diagonal entries of the pressure block are stored explicitly.  The
@@ -264,7 +278,12 @@ class SheetProblem:
         constant = self._tangent_constant()
         with asm_.workspace.lock:
             Kb, Kpu = asm_.tangent_buffers()
-            asm_.on_element_chunks(self._element_blocks, w, Kb, Kpu)
+            if w_ref is None:
+                asm_.on_element_chunks(self._element_blocks, w, Kb, Kpu)
+            else:
+                asm_.on_element_chunks(
+                    lambda ww, sel, kb, kpu: self._element_blocks(ww, sel, kb, kpu, w_ref),
+                    w, Kb, Kpu)
             asm_.sum_blocks(constant, Kb, Kpu)
             data = asm_.gather()
         return asm_.matrix(data)

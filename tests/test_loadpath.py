@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet, newton
-from skfem_sheet.continuation import follow_path
+from skfem_sheet.continuation import StepOptions, follow_path
 from skfem_sheet.engine import corrector, transient
 from skfem_sheet.engine.loadpath import Attempt, RampControl, growth, ramp
 from skfem_sheet.linalg import make_linear_solver
@@ -121,3 +121,62 @@ def test_resume_needs_a_known_phase_and_a_start_state():
     with pytest.raises(ParameterError, match="resume lam"):
         follow_path(problem, "curvature-first", 1.0, solver, w0=np.zeros(problem.ndof),
                     resume=("gravity", 1.5))
+
+
+def test_the_first_snapping_attempt_retries_the_failed_load():
+    """A branch that ends at 0.6: once the steps are cut below snap_step the
+    snap is tried at the load that has just failed (beyond the fold), not at
+    half the step (which may be short of the fold: a settle that does not
+    snap); with snap_at_failure=False, at half the step."""
+    for at_failure in (True, False):
+        calls = []
+        branch = ["first"]
+
+        def attempt(lam, lam_new, snapping, calls=calls, branch=branch):
+            calls.append((lam, lam_new, snapping))
+            if snapping:
+                branch[0] = "second"
+            ok = lam_new <= 0.6 or branch[0] == "second"
+            return Attempt(ok, 2 if ok else 5, "" if ok else "no equilibrium")
+
+        out = ramp(0.0, RampControl(snap_step=0.05, snap_at_failure=at_failure), attempt)
+        assert out.converged and len(out.snapped) == 1
+        i = next(k for k, c in enumerate(calls) if c[2])
+        failed = calls[i - 1][1]
+        assert not calls[i - 1][2] and calls[i][0] == calls[i - 1][0]
+        if at_failure:
+            assert calls[i][1] == failed and out.snapped[0] == failed
+        else:
+            assert calls[i][1] < failed and out.snapped[0] < failed
+
+
+def test_the_jump_guard_options_are_checked():
+    for name in ("jump_ratio", "jump_floor", "max_move"):
+        with pytest.raises(ParameterError, match=name):
+            StepOptions(**{name: 0.0})
+        with pytest.raises(ParameterError, match=name):
+            StepOptions(**{name: float("nan")})
+
+
+def test_a_smooth_step_corrects_to_second_order_and_passes_the_jump_guard():
+    """The premise of the jump guard (``StepOptions.jump_ratio``): on a smooth
+    branch the tangent predictor is first order in the step and the
+    corrector's move second order, so halving the first step (predicted from
+    the exact tangent at the reference state) halves the predicted move and
+    cuts the correction by about four; a whole path on a branch without folds
+    is never cut by the guard."""
+    problem = build_problem(Sheet(length=0.8, tip_width=0.8, curvature=2.0), 0.2, None, 2,
+                            half=True)
+    first = []
+    for step in (0.25, 0.125, 0.0625):
+        out = follow_path(problem, "curvature-first", 2.0, make_linear_solver("auto"),
+                          step_options=StepOptions(initial_step=step))
+        assert out.converged and out.stable is True and not out.snaps
+        assert out.rejected_steps == 0 and all(m[-1] for m in out.moves)
+        assert len(out.moves) == len(out.steps)
+        name, lam, predicted, corrected, moved, _ = out.moves[0]
+        assert (name, lam) == ("curvature", step)
+        first.append((predicted, corrected))
+    for (p0, c0), (p1, c1) in zip(first, first[1:]):
+        assert p1 / p0 == pytest.approx(0.5, rel=0.05)
+        assert c1 / c0 < 0.35

@@ -111,3 +111,34 @@ def test_unstable_direction_is_the_negative_eigenvector():
     np.testing.assert_allclose(A @ v, lam * (M @ v), atol=1e-6 * np.abs(A @ v).max())
     nu_free = problem.free < problem.nu_dof
     assert np.abs(v[nu_free]).max() == pytest.approx(1.0)
+
+
+# --------------------------------------------------------------------------------------
+# the mixed-integration-point linearisation of the load-path Newton (issue 17)
+# --------------------------------------------------------------------------------------
+def test_mip_newton_converges_to_the_exact_newton_state_and_leaves_the_hessian():
+    """Same residual, so the same equilibrium (to the tolerance); a converged
+    MIP solve leaves the exact tangent at its state factorised, whose inertia
+    is the one of the Hessian there."""
+    problem = _flat_problem()
+    w0 = np.zeros(problem.ndof)
+    w0[problem.clamp_dofs] = problem.clamp_values(problem.sheet.curvature)
+    ends = {}
+    for lin in ("exact", "mip"):
+        solver = make_linear_solver("auto")
+        opts = NewtonOptions(utol=1e-9, max_iterations=30, linearization=lin)
+        res = newton(problem, w0, 0.3, solver, opts, Stats())
+        assert res.converged, res.reason
+        ends[lin] = (res.w, stability(problem, solver))
+    d = np.abs(ends["mip"][0] - ends["exact"][0])[: problem.nu_dof].max()
+    assert d < 1e-8
+    check = make_linear_solver("auto")
+    check.factorize(problem.tangent(ends["mip"][0]), ends["mip"][0])
+    assert ends["mip"][1] == stability(problem, check) == ends["exact"][1]
+
+
+def test_bad_linearization_raises():
+    with pytest.raises(ParameterError, match="linearization"):
+        NewtonOptions(linearization="secant")
+    with pytest.raises(ParameterError, match="mip_threshold"):
+        NewtonOptions(mip_threshold=-1.0)

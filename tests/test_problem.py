@@ -147,3 +147,21 @@ def test_saddle_point_layout_of_the_problem():
     w = random_state(p)
     assert np.array_equal(lay.displacements(w), p.split(w)[0])
     assert lay.rotations(w).shape == (p.n_nodes, 3, 3)
+
+
+def test_mip_tangent_is_the_hessian_at_its_reference_and_symmetric(problem):
+    """``tangent(w, w_ref)``: the exact tangent when ``w_ref = w``; otherwise a
+    symmetric matrix that differs from it by a term second order in ``w - w_ref``."""
+    w = random_state(problem, seed=8)
+    K = problem.tangent(w)
+    assert abs(problem.tangent(w, w_ref=w) - K).max() == 0.0
+    rng = np.random.default_rng(9)
+    v = np.zeros(problem.ndof)
+    v[problem.free] = rng.normal(size=len(problem.free))
+    v[problem.nu_dof:] = 0.0
+    diffs = []
+    for t in (1e-5, 5e-6):  # random v: gradients ~ v / (element thickness)
+        Km = problem.tangent(w + t * v, w_ref=w)
+        assert abs(Km - Km.T).max() <= 1e-10 * abs(Km).max()
+        diffs.append(abs(Km - problem.tangent(w + t * v)).max())
+    assert diffs[1] > 0 and 3.5 < diffs[0] / diffs[1] < 4.5

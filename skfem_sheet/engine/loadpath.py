@@ -24,7 +24,7 @@ A branch that ends at ``lam = 0.6``; beyond it a snap lands on the other one:
 ...     return Attempt(ok, 2 if ok else 5, "" if ok else "no equilibrium")
 >>> out = ramp(0.0, RampControl(snap_step=0.05), attempt)
 >>> out.converged, out.lam, [round(x, 4) for x in out.snapped], out.rejected
-(True, 1.0, [0.5938], 6)
+(True, 1.0, [0.625], 6)
 """
 from __future__ import annotations
 
@@ -48,6 +48,11 @@ class RampControl:
     easy_iterations : int
     snap_step : float or None
         Cut below this, the next attempts snap (``None``: never).
+    snap_at_failure : bool
+        The first snapping attempt is made at the load that has just failed
+        (beyond the fold, where the snap must happen), not at half the step
+        (which may still be short of the fold and cost a settle that does
+        not snap); later snapping attempts halve the step as usual.
     """
 
     initial_step: float = 0.25
@@ -56,6 +61,7 @@ class RampControl:
     grow: float = 2.0
     easy_iterations: int = 2
     snap_step: float | None = None
+    snap_at_failure: bool = True
 
     def __post_init__(self):
         check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
@@ -167,6 +173,8 @@ def ramp(lam: float, control: RampControl, attempt, *, end: float = 1.0) -> Ramp
         step *= 0.5
         if control.snap_step is not None and not snapping and step < control.snap_step:
             snapping = True
+            if control.snap_at_failure:
+                step *= 2.0  # retry the failed load, now snapping
         elif step < control.min_step:
             return RampOutcome(lam, False, "step below min_step", last, steps, rejected,
                                tuple(snapped))

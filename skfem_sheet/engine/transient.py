@@ -90,7 +90,8 @@ class TransientResult:
 
 def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
                      max_iterations: int = 80, radius: float = 0.1,
-                     sigma_floor: float = 1e-2, max_halvings: int = 6) -> TransientResult:
+                     sigma_floor: float = 1e-2, max_halvings: int = 6,
+                     max_decrease: float = 4.0) -> TransientResult:
     """Pseudo-transient continuation from ``u`` to a stable equilibrium.
 
     Shift control:
@@ -101,7 +102,12 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
       step of a convex model, which repels from saddles;
     - a step whose correction norm exceeds ``radius`` is cut to it, and a cut
       (or halved) step doubles ``sigma``; a full step divides it by four, and
-      below ``sigma_floor`` it becomes exactly 0 (plain Newton);
+      below ``sigma_floor`` it becomes exactly 0 (plain Newton); while full
+      steps are much shorter than ``radius`` (the shift dominates the
+      tangent, so the step length scales like ``1/sigma``) it is divided by
+      up to ``max_decrease`` instead, aiming at a step of half the radius
+      (after a snap the shift can be 1e6 times larger than at the end, and
+      four at a time that is ten steps of crawling);
     - steps to inadmissible states are halved (``max_halvings`` times).
 
     Stopping rule: a plain Newton step (``sigma = 0``) whose tangent has no
@@ -125,6 +131,9 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
     sigma_floor : float
         Smallest non-zero shift.
     max_halvings : int
+    max_decrease : float
+        Largest division of ``sigma`` after a full step (at least 4; 4 gives
+        the fixed quartering).
 
     Returns
     -------
@@ -150,6 +159,7 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
     check_range("utol", utol, 0, None, lo_open=True)
     check_range("radius", radius, 0, None, lo_open=True)
     check_range("max_iterations", max_iterations, 1, 100000)
+    check_range("max_decrease", max_decrease, 4, 1e6)
     u = np.array(u, dtype=float)
     r = system.residual(u)
     if r is None:
@@ -196,5 +206,10 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
         if cut < 1.0 or alpha < 1.0:
             sigma = max(2.0 * sigma, sigma_floor)
         else:
-            sigma = sigma / 4.0 if sigma / 4.0 >= sigma_floor else 0.0
+            # a full step: divide by 4, or while the step is much shorter
+            # than the radius (the shift dominates: dn ~ 1/sigma) by up to
+            # max_decrease, aiming at a step of half the radius
+            aim = 0.5 * radius / dn if dn > 0 else max_decrease
+            f = min(max_decrease, max(4.0, aim))
+            sigma = sigma / f if sigma / f >= sigma_floor else 0.0
     return result(False, max_iterations, "pseudo-transient iteration did not settle")
