@@ -285,3 +285,24 @@ def test_flat_rectangle_from_a_coarse_start_matches_heavy_elastica_at_paper_reso
     r = solve(Sheet(length=1.0), hmax=0.03, start="coarse")
     assert r.coarse_fallback == "" and r.factorizations <= 10
     assert r.deflection == pytest.approx(heavy_elastica(1.0), rel=5e-3)
+
+
+def test_the_default_coarse_mesh_runs_only_where_it_is_twice_as_coarse(monkeypatch):
+    """With ``coarse_hmax`` at its default (0.1) and hmax 0.08 the coarse path
+    would cost about as much as the path (issue-17 sheet: 98 coarse + 38 fine
+    Newton iterations against 75): the path runs, and says why; an explicit
+    coarse mesh as close is still used."""
+    import sys
+
+    solve_module = sys.modules["skfem_sheet.solve"]  # (the package exports the function)
+    calls = []
+    real = solve_module._coarse_to_fine
+    monkeypatch.setattr(solve_module, "_coarse_to_fine",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    sheet = Sheet(length=0.5, curvature=1.0)
+    near = solve(sheet, hmax=0.08)
+    assert near.converged and not calls and near.coarse_factorizations == 0
+    assert "less than 2 times coarser" in near.coarse_fallback
+    explicit = solve(sheet, hmax=0.08, coarse_hmax=0.12)
+    assert explicit.converged and calls and explicit.coarse_fallback == ""
+    assert explicit.deflection == pytest.approx(near.deflection, rel=1e-6)

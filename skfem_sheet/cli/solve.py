@@ -17,7 +17,7 @@ from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
-from ..solve import COARSE_HMAX, STARTS, solve
+from ..solve import COARSE_HMAX, MIN_COARSENING, STARTS, solve
 
 __all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
            "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
@@ -81,7 +81,9 @@ def add_solve_args(p, hmax=0.03) -> None:
                         "one fails); path: the load path on the mesh --hmax (the default "
                         "with --series, which then holds every load step)")
     p.add_argument("--coarse-hmax", type=float, default=COARSE_HMAX,
-                   help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX})")
+                   help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX}, "
+                        f"used where it is at least {MIN_COARSENING:g} times --hmax; closer, "
+                        f"the path runs on --hmax)")
     p.add_argument("--json", default=None, help="write a JSON summary here")
     p.add_argument("--vtu", default=None, help="write the deformed sheet (VTU, ParaView) here")
     p.add_argument("--png", default=None, help="write a picture of the deformed sheet here")
