@@ -20,7 +20,7 @@ from .problem import SheetProblem
 from .version import __version__
 
 __all__ = ["Result", "SolveError", "solve", "build_problem", "MAX_DOFS", "STARTS",
-           "COARSE_HMAX", "MIN_COARSENING", "LATE_SNAP", "RESUME_MARGIN", "FOLD_SHIFT", "FINISH_ITERATIONS", "FINAL_UTOL",
+           "COARSE_HMAX", "MIN_COARSENING", "LATE_SNAP", "RESUME_MARGIN", "RESUME_TRIES", "FOLD_SHIFT", "FINISH_ITERATIONS", "FINAL_UTOL",
            "POLISH_ITERATIONS"]
 
 #: Largest problem accepted (about 6 GB of factor with PARDISO on 2 cores).
@@ -59,6 +59,10 @@ LATE_SNAP = 0.25
 #: load is taken to decide the fine mesh's branch: no fold was seen to move to
 #: earlier loads on the finer mesh.)
 RESUME_MARGIN = 0.05
+
+#: Coarse states (going back from the one :data:`RESUME_MARGIN` before the
+#: snap) from which the fine Newton is tried before the resume fails.
+RESUME_TRIES = 3
 
 #: A resumed fine path whose branch ends (steps cut below
 #: ``StepOptions.snap_step``) within this of the late coarse snap (fraction of
@@ -789,19 +793,32 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     last = order[-1]
     lam_snap = min(lam for phase, lam, _, _ in coarse.snaps
                    if phase == last and lam >= 1 - LATE_SNAP)
-    phase, lam, _ = coarse.steps[index]
-    if phase != last:  # the end of the phase before: the start of the last one
-        phase, lam = last, 0.0
-    k, g = phases[phase](lam)
-    w = transfer(cproblem, states[index], problem)
-    w[problem.clamp_dofs] = problem.clamp_values(k)
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol,
                     max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
-    res = newton(problem, w, g, linear, loose, stats,
-                 max_first_increment=scale * step_options.max_correction)
+    # a transferred state can lie outside the fine Newton's basin although it is
+    # near the fine branch (at hmax 0.2 -> 0.15, a/R 6: 0.049 from it, Newton
+    # fails, while the coarse states one step before and after converge): then
+    # from the coarse states before it, up to RESUME_TRIES in all
+    failed, first = [], index
+    for index in range(first, max(-1, first - RESUME_TRIES), -1):
+        phase, lam, _ = coarse.steps[index]
+        if phase != last:  # the end of the phase before: the start of the last one
+            phase, lam = last, 0.0
+        k, g = phases[phase](lam)
+        w = transfer(cproblem, states[index], problem)
+        w[problem.clamp_dofs] = problem.clamp_values(k)
+        res = newton(problem, w, g, linear, loose, stats,
+                     max_first_increment=scale * step_options.max_correction)
+        if res.converged:
+            break
+        failed.append(f"at {phase} {lam:.3g}: {res.reason}")
+        if phase != coarse.steps[index][0]:
+            break  # no earlier state of the last phase
     where = f"{why}; resumed at {phase} {lam:.3g}"
+    if failed:
+        where += f" (fine Newton from the coarse state failed {'; '.join(failed)})"
     if not res.converged:
-        return None, f"{where}: fine Newton from the coarse state failed: {res.reason}"
+        return None, f"{why}: fine Newton from the coarse state failed {'; '.join(failed)}"
     frames = []  # passed on only if the resumed path succeeds (else the whole path runs)
     collect = None if on_step is None else (lambda *frame: frames.append(frame))
     before = tuple(x for x in coarse.snaps

@@ -67,14 +67,17 @@ def popping_sheet_full_path():
     return sheet, solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="path")
 
 
-@pytest.mark.parametrize("fold_shift", [None, 0.0])
+# FOLD_SHIFT -1: no end of the fine branch counts as near the coarse fold (0 is
+# not enough: since the jump guard both meshes' paths take the same steps here,
+# and the fine branch ends exactly at the coarse snap's load)
+@pytest.mark.parametrize("fold_shift", [None, -1.0])
 def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch, popping_sheet_full_path,
                                                             fold_shift):
     # A snap that late in the last phase does not decide the fine mesh's branch:
     # with LATE_SNAP = 0.6 the fine path resumes from the coarse state
     # RESUME_MARGIN before the snap, and the fine mesh decides: its branch ends
     # near the coarse fold (FOLD_SHIFT), so the sheet snaps there and the coarse
-    # end state is finished; with FOLD_SHIFT = 0 the fine path goes on from where
+    # end state is finished; with FOLD_SHIFT < 0 the fine path goes on from where
     # its branch ended and snaps itself.  Either way the state, the snap and the
     # label are those of the fine mesh's full path
     sheet, full = popping_sheet_full_path
@@ -89,7 +92,15 @@ def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch, popping
     assert back.branch == full.branch == "curvature-dominated"
     # one snap, the fine mesh's (to about a snap step: the last load its branch held)
     assert len(back.snaps) == 1 and back.snaps[0][0] == "curvature"
-    assert back.snaps[0][1] == pytest.approx(full.snaps[0][1], abs=0.03)
+    # The full path records its snap at the first load past the fold (0.5 here),
+    # the resumed one at the last load its branch held: the fine fold lies
+    # between the full path's last held load and its snap, so the resumed
+    # record lies in [last held - 0.03, snap] (the bound was abs=0.03 around the
+    # snap, which one snap step, 1/32, already exceeds when both meshes' paths
+    # take the same steps, as they do since the jump guard)
+    held = max(lam for phase, lam, _ in full.steps
+               if phase == "curvature" and lam < full.snaps[0][1])
+    assert held - 0.03 <= back.snaps[0][1] <= full.snaps[0][1]
     # the resumed load: a fine Newton step RESUME_MARGIN before the coarse snap
     resumed = next(s for s in back.steps if s[0] == "fine")
     assert resumed[1] < back.snaps[0][1] - solve_module.RESUME_MARGIN
