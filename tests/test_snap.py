@@ -84,10 +84,9 @@ def test_the_issue_sheet_is_reproducible_with_default_threads():
     for r in (first, second):
         assert r["converged"] and r["stable"] is True and r["iterations"] <= bound
     assert second["d"] == pytest.approx(first["d"], abs=1e-10)
-    if second["iterations"] != first["iterations"]:
-        pytest.xfail(f"iterations {first['iterations']} and {second['iterations']}: equal counts "
-                     "with threads need reproducible linear solves by default (issue 17 item 1, "
-                     "skfem_sheet.linalg); make this an assertion once they are merged")
+    # reproducible linear solves are the default (skfem_sheet.linalg): the same
+    # work in every process, with threads
+    assert second["iterations"] == first["iterations"]
 
 
 @pytest.mark.parametrize("sheet, path, hmax, bound", CASES)
