@@ -604,6 +604,15 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             Newton (or, snapping, a pseudo-transient settle and Newton), then the
             verification of a snapped state."""
             nonlocal w, prev, have_factor
+
+            def reject(res, why):
+                """A rejected attempt, recorded; the next one refactorises."""
+                nonlocal have_factor
+                out.rejected_steps += 1
+                out.rejections.append((name, lam_new, why, res.iterations, res.corrections))
+                have_factor = False
+                return Attempt(False, res.iterations, why)
+
             k_new, g_new = load(lam_new)
             k_old, _ = load(lam)
             if not have_factor:
@@ -639,11 +648,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 res = newton(problem, w_pred, g_new, solver, opts, stats,
                              max_first_increment=guard, exact_on_return=final)
             if not res.converged:
-                out.rejected_steps += 1
-                out.rejections.append((name, lam_new, res.reason, res.iterations,
-                                       res.corrections))
-                have_factor = False  # the failed attempt's factorisation is useless
-                return Attempt(False, res.iterations, res.reason)
+                return reject(res, res.reason)  # its factorisation is useless
             w_new = res.w
             nu = problem.nu_dof
             if not snapping:
@@ -665,11 +670,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                            f"inside the step unless it is settled as a snap")
                 out.moves.append((name, lam_new, predicted, corrected, moved, not why))
                 if why:
-                    out.rejected_steps += 1
-                    out.rejections.append((name, lam_new, why, res.iterations,
-                                           res.corrections))
-                    have_factor = False  # factorised on the other branch
-                    return Attempt(False, res.iterations, why)
+                    return reject(res, why)  # factorised on the other branch
             if snapping:
                 if step_options.verify:
                     # the settle is drawn to stable states, but check

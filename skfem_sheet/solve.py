@@ -662,10 +662,20 @@ def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None, first=
     return w, n
 
 
+def _newton_from(src, w_src, dst, kappa, g, linear, opts, stats, guard):
+    """The state ``w_src`` of ``src`` transferred to ``dst`` (clamp set to
+    ``kappa``) and solved there by Newton at gravity ``g``, its first
+    correction at most ``guard``: ``(NewtonResult, transferred state)``."""
+    w = transfer(src, w_src, dst)
+    w[dst.clamp_dofs] = dst.clamp_values(kappa)
+    return newton(dst, w, g, linear, opts, stats, max_first_increment=guard), w
+
+
 def _resume_load(coarse, states, path, kappa):
-    """Where the fine path resumes after a late coarse snap: ``(index, why)``
-    of the state in ``states`` (aligned with ``coarse.steps``) to resume from,
-    or ``None`` if the coarse path did not snap late in its last phase."""
+    """Where the fine path resumes after a late coarse snap: ``(index,
+    lam_snap, why)``, the state in ``states`` (aligned with ``coarse.steps``)
+    to resume from and the load of the snap, or ``None`` if the coarse path
+    did not snap late in its last phase."""
     phases = load_phases(path, kappa)
     last = phases[-1][0]
     late = [lam for phase, lam, _, _ in coarse.snaps
@@ -683,8 +693,8 @@ def _resume_load(coarse, states, path, kappa):
             index = i
     if index is None:
         return None
-    return index, (f"coarse path snapped late in its {last} phase (at {lam_snap:.3g} "
-                   f"of its range)")
+    return index, lam_snap, (f"coarse path snapped late in its {last} phase (at "
+                             f"{lam_snap:.3g} of its range)")
 
 
 def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
@@ -727,10 +737,8 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
                    max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
 
     def finish(src, w_src, dst, lin, st):
-        w = transfer(src, w_src, dst)
-        w[dst.clamp_dofs] = dst.clamp_values(coarse.kappa)
-        return newton(dst, w, coarse.g, lin, opts, st,
-                      max_first_increment=scale * step_options.max_correction), w
+        return _newton_from(src, w_src, dst, coarse.kappa, coarse.g, lin, opts, st,
+                            scale * step_options.max_correction)
 
     res, w0 = finish(cproblem, coarse.w, problem, linear, stats)
     if not res.converged:
@@ -766,10 +774,10 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
 
 
 def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_options, stats,
-                 report, coarse, states, index, why, scale, on_step):
+                 report, coarse, states, index, lam_snap, why, scale, on_step):
     """The load path on ``problem`` resumed from the coarse state
     ``states[index]`` (at the load of ``coarse.steps[index]``), after a late
-    coarse snap at ``lam_snap``.
+    coarse snap at ``lam_snap`` (both from :func:`_resume_load`).
 
     The coarse state is transferred and solved there by Newton (to the
     intermediate tolerance), then the fine path resumes
@@ -791,8 +799,6 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     named = load_phases(path, kappa)
     phases, order = dict(named), [name for name, _ in named]
     last = order[-1]
-    lam_snap = min(lam for phase, lam, _, _ in coarse.snaps
-                   if phase == last and lam >= 1 - LATE_SNAP)
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol,
                     max_iterations=max(newton_options.max_iterations, FINISH_ITERATIONS))
     # a transferred state can lie outside the fine Newton's basin although it is
@@ -804,11 +810,8 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
         phase, lam, _ = coarse.steps[index]
         if phase != last:  # the end of the phase before: the start of the last one
             phase, lam = last, 0.0
-        k, g = phases[phase](lam)
-        w = transfer(cproblem, states[index], problem)
-        w[problem.clamp_dofs] = problem.clamp_values(k)
-        res = newton(problem, w, g, linear, loose, stats,
-                     max_first_increment=scale * step_options.max_correction)
+        res, _ = _newton_from(cproblem, states[index], problem, *phases[phase](lam), linear,
+                              loose, stats, scale * step_options.max_correction)
         if res.converged:
             break
         failed.append(f"at {phase} {lam:.3g}: {res.reason}")
