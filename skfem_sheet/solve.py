@@ -41,35 +41,48 @@ COARSE_HMAX = 0.1
 #: runs instead.  An explicit ``coarse_hmax`` is used whenever it is coarser.
 MIN_COARSENING = 2.0
 
-#: A coarse path that snapped in its last phase at ``lam >= 1 - LATE_SNAP`` of
-#: that phase (or at full load, leaving an unstable end state) does not decide
-#: the branch of the fine mesh: its fold may lie on the other side of full
-#: load there, and ``start="coarse"`` resumes the load path on the fine mesh
-#: from the coarse state before the snap (:data:`RESUME_MARGIN`).
-LATE_SNAP = 0.25
-
 #: The fine path resumes from the coarse path's last accepted state of the
 #: snapping phase at ``lam <= lam_snap - RESUME_MARGIN`` (the phase's start if
 #: there is none), so that it starts on the branch the coarse path was
-#: following, before the fine fold.  Folds move little between the meshes, and
-#: so far always to later loads on the finer mesh: by 0.007-0.023 of the phase
-#: between hmax 0.1 and 0.03 on the three snapping solves of the sample of
-#: ``benchmarks/solve_sample.py``, 0.017 between 0.1 and 0.08 on the sheet of
-#: issue 17.  (For the same reason a coarse path that holds its branch to full
-#: load is taken to decide the fine mesh's branch: no fold was seen to move to
-#: earlier loads on the finer mesh.)
+#: following, before the fine fold.  Folds move little between the meshes:
+#: the snap loads recorded at hmax 0.1 and 0.03 differ by 0.004-0.014 of the
+#: phase, either way, on the four snapping solves of the sample of
+#: ``benchmarks/solve_sample.py`` (seed 16; less than one ``snap_step``, the
+#: resolution of the record), and by 0.017 between 0.1 and 0.08 on the sheet
+#: of issue 17.  (A coarse
+#: path that holds its branch to full load is taken to decide the fine mesh's
+#: branch: no fold was seen to move from beyond full load on the coarse mesh
+#: to before it on the finer one.)
 RESUME_MARGIN = 0.05
 
 #: Coarse states (going back from the one :data:`RESUME_MARGIN` before the
 #: snap) from which the fine Newton is tried before the resume fails.
 RESUME_TRIES = 3
 
-#: A resumed fine path whose branch ends (steps cut below
-#: ``StepOptions.snap_step``) within this of the late coarse snap (fraction of
-#: the phase) ends at the coarse fold: the sheet snaps there on the fine mesh
-#: too, onto the branch the coarse path snapped to (its end state is finished
-#: on the fine mesh instead of a snap settle there).
+#: How far (fraction of the phase) a fold is taken to move at most between the
+#: coarse mesh and the fine one: six times the largest shift measured (see
+#: :data:`RESUME_MARGIN`).  A resumed fine path whose branch ends (steps cut
+#: below ``StepOptions.snap_step``) within this of the late coarse snap ends
+#: at the coarse fold: the sheet snaps there on the fine mesh too, onto the
+#: branch the coarse path snapped to (its end state is finished on the fine
+#: mesh instead of a snap settle there).
 FOLD_SHIFT = 0.1
+
+#: A coarse path that snapped in its last phase at ``lam >= 1 - LATE_SNAP`` of
+#: that phase (or at full load, leaving an unstable end state) does not decide
+#: the branch of the fine mesh: its fold may lie beyond full load there, and
+#: ``start="coarse"`` resumes the load path on the fine mesh from the coarse
+#: state before the snap (:data:`RESUME_MARGIN`), so that the fine mesh
+#: decides.  An earlier snap has its fine fold before full load too (it moves
+#: at most :data:`FOLD_SHIFT`), so the fine sheet snaps onto the branch the
+#: coarse path snapped to, and the coarse end state is finished on the fine
+#: mesh like that of a path without a snap.  Hence the same margin: a resumed
+#: probe of an earlier snap only ever found the fine branch ending near the
+#: coarse fold, at the cost of a fine path through the fold (the sheet L 1.474,
+#: b 0.711, a/R 4.845, gravity-first, snapping at 0.779: 37 fine
+#: factorisations with the probe, 4 without; both the same end state as the
+#: whole fine path).
+LATE_SNAP = FOLD_SHIFT
 
 #: Newton iterations allowed to finish a transferred coarse state on the fine
 #: mesh (at least ``NewtonOptions.max_iterations``); beyond them the state is

@@ -117,6 +117,25 @@ def test_a_late_coarse_snap_resumes_the_fine_path_before_it(monkeypatch, popping
     assert back.to_record()["coarse_resume"] == back.coarse_resume
 
 
+def test_a_coarse_snap_before_the_late_window_is_finished_without_a_resume(
+        popping_sheet_full_path):
+    # the coarse snap (about 0.47 of the curvature ramp) lies further than
+    # FOLD_SHIFT from full load, so the fine fold lies before full load too: the
+    # sheet snaps on the fine mesh as well, and the coarse end state is finished
+    # there with no fine path through the fold (which is what made the resumed
+    # probe cost 37 fine factorisations at hmax 0.03 on L 1.474, a/R 4.845)
+    sheet, full = popping_sheet_full_path
+    assert solve_module.LATE_SNAP == solve_module.FOLD_SHIFT
+    r = solve(sheet, path="gravity-first", hmax=0.15, symmetric=False, start="coarse",
+              coarse_hmax=0.2)
+    assert len(full.snaps) == 1 and full.snaps[0][1] < 1 - solve_module.LATE_SNAP
+    assert r.converged and r.coarse_fallback == "" and r.coarse_resume == ""
+    assert r.stable is True and r.branch == full.branch == "curvature-dominated"
+    assert len(r.snaps) == 1 and r.steps[-1][:2] == ("fine", 1.0)
+    assert r.deflection == pytest.approx(full.deflection, rel=1e-7)
+    assert r.factorizations < 0.5 * full.factorizations
+
+
 def test_a_fine_branch_that_holds_to_full_load_is_not_snapped(monkeypatch):
     # the bistable rectangle's gravity-first path holds its branch on both meshes;
     # a late snap recorded on the coarse path (made up here) makes the fine path
@@ -129,7 +148,8 @@ def test_a_fine_branch_that_holds_to_full_load_is_not_snapped(monkeypatch):
     def coarse_snaps_late(problem, *args, **kwargs):
         out = real(problem, *args, **kwargs)
         if problem.sheet_mesh.hmax == 0.12 and out.converged:
-            out.snaps.append(("curvature", 0.9, 2.25, 1.0))
+            # late: within LATE_SNAP of full load
+            out.snaps.append(("curvature", 0.95, 2.375, 1.0))
         return out
 
     monkeypatch.setattr(solve_module, "follow_path", coarse_snaps_late)
@@ -138,7 +158,7 @@ def test_a_fine_branch_that_holds_to_full_load_is_not_snapped(monkeypatch):
     assert r.snaps == () and r.branch == full.branch == "gravity-dominated"
     assert r.deflection == pytest.approx(full.deflection, rel=1e-7)
     fine = next(s for s in r.steps if s[0] == "fine")
-    assert fine[1] <= 0.9 - solve_module.RESUME_MARGIN and r.steps[-1][:2] == ("curvature", 1.0)
+    assert fine[1] <= 0.95 - solve_module.RESUME_MARGIN and r.steps[-1][:2] == ("curvature", 1.0)
 
 
 def test_no_late_snap_means_no_resume():
