@@ -1,19 +1,21 @@
 """d of the coarse start against the load path at hmax 0.03, with polished references.
 
-    python benchmarks/solve_sample_d_check.py
+    python benchmarks/solve_sample_d_check.py [COARSE.json [OUT.txt]]
 
-Reads ``benchmarks/results/solve_sample_hmax0.03_coarse.json`` (``solve``'s
-default start, every end state polished to ``FINAL_UTOL``) and the full-path
+Reads ``COARSE.json`` in ``benchmarks/results/`` (default
+``solve_sample_hmax0.03_coarse.json``: ``solve``'s default start, every end
+state polished to ``FINAL_UTOL``) and the full-path
 reference ``solve_sample_hmax0.03_path.json`` (made before the polish: its d
 is off by up to its Newton tolerance, ``utol = 1e-6``), with the rows it
 differs most in re-run polished (``solve_sample_hmax0.03_path_polished_rows.json``,
 by ``python benchmarks/solve_sample.py --hmax 0.03 --sheet 1.4963,0.8717,3.5365
 --sheet 1.3,1.0,2.5 --paths curvature-first --start path --json ...``), and
-writes the relative differences in d to
-``solve_sample_hmax0.03_coarse_vs_path_d.txt``.  Nothing is solved here.
+writes the relative differences in d to ``OUT.txt`` there (default
+``solve_sample_hmax0.03_coarse_vs_path_d.txt``).  Nothing is solved here.
 """
 import json
 import os
+import sys
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
@@ -27,17 +29,18 @@ def _load(name):
         return json.load(f)
 
 
-def main():
+def main(coarse="solve_sample_hmax0.03_coarse.json",
+         out="solve_sample_hmax0.03_coarse_vs_path_d.txt"):
     pol = _load("solve_sample_hmax0.03_path_polished_rows.json")
-    co = _load("solve_sample_hmax0.03_coarse.json")
+    co = _load(coarse)
     old = _load("solve_sample_hmax0.03_path.json")
     ref = {_key(r): (r["deflection"], "path, unpolished (solve_sample_hmax0.03_path.json)")
            for r in old["rows"]}
     ref.update({_key(r): (r["deflection"],
                           "path, polished (solve_sample_hmax0.03_path_polished_rows.json)")
                 for r in pol["rows"]})
-    lines = ["# python benchmarks/solve_sample_d_check.py",
-             "# d of start='coarse' (polished; solve_sample_hmax0.03_coarse.json) against "
+    lines = [f"# python benchmarks/solve_sample_d_check.py {coarse} {out}",
+             f"# d of start='coarse' (polished; {coarse}) against "
              "start='path' at hmax 0.03: the reference",
              "# solve_sample_hmax0.03_path.json (unpolished: d off by up to utol 1e-6), the "
              "rows it differs most in re-run polished",
@@ -54,10 +57,10 @@ def main():
     lines.append(f"largest relative difference in d over {len(co['rows'])} solves: {worst:.2e} "
                  f"(acceptance 1e-6)")
     text = "\n".join(lines) + "\n"
-    with open(os.path.join(RESULTS, "solve_sample_hmax0.03_coarse_vs_path_d.txt"), "w") as f:
+    with open(os.path.join(RESULTS, out), "w") as f:
         f.write(text)
     print(text)
 
 
 if __name__ == "__main__":
-    main()
+    main(*sys.argv[1:3])
