@@ -30,7 +30,8 @@ from .engine.protocol import Counting, EngineFailure, Problem
 from .linalg import LinearSolverError
 from .params import ParameterError, check_range
 
-__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "pseudo_transient", "timed"]
+__all__ = ["NewtonOptions", "NewtonResult", "Stats", "newton", "polish", "pseudo_transient",
+           "timed"]
 
 
 @dataclass(frozen=True)
@@ -327,6 +328,59 @@ class _SheetTransient(transient.TransientSystem):
         du[free] = timed(self.stats, "linear_solve_s", self.solver.solve, -r[free])
         self.stats.newton_iterations += 1
         return du
+
+
+def polish(problem, w, g, solver, stats: Stats, *, utol: float, max_iterations: int,
+           first: float = np.inf):
+    """Simplified-Newton corrections of the equilibrium ``w`` at gravity ``g``
+    with the factorisation ``solver`` holds (back-substitutions only, no new
+    factorisation), applied until one is at most ``utol`` (units of a, largest
+    nodal displacement), at most ``max_iterations``.
+
+    Stops early, keeping the state it has, where a correction is not finite,
+    inverts an element, exceeds ``first`` (the first one: ``w`` was not
+    solved to that tolerance) or does not shrink to at most half the previous
+    one (the factorisation is then too far from ``w``).  Used by
+    :func:`skfem_sheet.solve.solve` to bring every converged end state to
+    ``FINAL_UTOL`` whatever route reached it.
+
+    Returns
+    -------
+    (w, n) : the polished state and the number of corrections applied.
+
+    Examples
+    --------
+    >>> from skfem_sheet import Sheet
+    >>> from skfem_sheet.linalg import make_linear_solver
+    >>> from skfem_sheet.solve import build_problem
+    >>> problem = build_problem(Sheet(length=0.5), 0.2)
+    >>> solver, stats = make_linear_solver(), Stats()
+    >>> res = newton(problem, np.zeros(problem.ndof), 1.0, solver, NewtonOptions(), stats)
+    >>> w, n = polish(problem, res.w, 1.0, solver, stats, utol=1e-12, max_iterations=4)
+    >>> n >= 1 and stats.factorizations == res.iterations
+    True
+    """
+    free = problem.free
+    nu_free = free < problem.nu_dof
+    w = np.array(w, dtype=float)
+    previous, n = first, 0
+    for _ in range(max_iterations):
+        r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
+        stats.residual_evaluations += 1
+        if not (Jmin > 0 and np.all(np.isfinite(r))):
+            break
+        try:
+            du = timed(stats, "linear_solve_s", solver.solve, -r[free])
+        except LinearSolverError:
+            break
+        size = float(np.abs(du[nu_free]).max()) if np.any(nu_free) else 0.0
+        if not (np.isfinite(size) and size <= (previous if n == 0 else 0.5 * previous)):
+            break
+        w[free] += du
+        n, previous = n + 1, size
+        if size <= utol:
+            break
+    return w, n
 
 
 def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats,

@@ -12,9 +12,9 @@ from .analyses.observables import tip_deflection
 from .analyses.transfer import transfer
 from .continuation import PATHS, StepOptions, end_state_verdict, follow_path, load_phases
 from .io import write_result
-from .linalg import LinearSolverError, make_linear_solver
+from .linalg import make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
-from .newton import NewtonOptions, Stats, newton, timed
+from .newton import NewtonOptions, Stats, newton, polish
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .version import __version__
@@ -570,10 +570,10 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                 if out is not None and series is not None and not out.own_frames:
                     on_step(problem, out.w, out.kappa, out.g)
         if out is None:
-            out = follow_path(problem, path, sheet.curvature, linear,
-                              newton_options=newton_options, step_options=step_options,
-                              stats=stats, progress=report,
-                              on_step=hook)
+            out = _Reached.of_path(follow_path(problem, path, sheet.curvature, linear,
+                                               newton_options=newton_options,
+                                               step_options=step_options, stats=stats,
+                                               progress=report, on_step=hook))
     finally:
         if bar is not None:
             bar.close()
@@ -582,8 +582,9 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         # both starts: the same tight end state (d to FINAL_UTOL, not utol); also
         # an end state at full load that failed its stability check (solved to
         # the full tolerance all the same)
-        w, n_polish = _polish(problem, w, out.g, linear, stats,
-                              first=10 * newton_options.utol)
+        w, n_polish = polish(problem, w, out.g, linear, stats, utol=FINAL_UTOL,
+                             max_iterations=POLISH_ITERATIONS,
+                             first=10 * newton_options.utol)
     if pending:
         pr, w_last, k, g = pending.pop()
         if out.converged and pr is problem and (k, g) == (out.kappa, out.g):
@@ -610,16 +611,18 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         coarse_hmax=coarse_hmax, coarse_fallback=fallback,
         coarse_factorizations=cstats.factorizations,
         coarse_newton_iterations=cstats.newton_iterations,
-        coarse_resume=getattr(out, "resume", ""), polish_iterations=n_polish)
+        coarse_resume=out.resume, polish_iterations=n_polish)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
 
 
 @dataclass(frozen=True)
-class _Finished:
-    """The end state of a coarse path finished on the fine mesh (the fields of
-    :class:`~skfem_sheet.continuation.PathOutcome` that :func:`solve` reads)."""
+class _Reached:
+    """How :func:`solve` reached its end state, whatever the route: the load
+    path on the mesh ``hmax`` (:meth:`of_path`), a coarse path finished there,
+    or a fine path resumed after a late coarse snap.  What the Result is
+    made of."""
 
     w: np.ndarray
     kappa: float
@@ -631,48 +634,17 @@ class _Finished:
     negative_eigenvalues: object
     converged: bool = True
     reason: str = ""
-    resume: str = ""
+    resume: str = ""  # where a fine path resumed after a late coarse snap
     own_frames: bool = False  # the end state was passed to on_step already
 
-
-def _polish(problem, w, g, linear, stats, utol=None, max_iterations=None, first=np.inf):
-    """Simplified Newton corrections of the equilibrium ``w`` at gravity ``g``
-    with the factorisation ``linear`` holds (back-substitutions only), applied
-    until one is at most ``utol`` (default :data:`FINAL_UTOL`; units of a,
-    largest nodal displacement), at most ``max_iterations`` (default
-    :data:`POLISH_ITERATIONS`).  Stops early, keeping the state it has, where
-    a correction is not finite, inverts an element, exceeds ``first`` (the
-    first one: ``w`` was not solved to that tolerance) or does not shrink to
-    at most half the previous one (the factorisation is then too far from
-    ``w``).
-
-    Returns
-    -------
-    (w, n) : the polished state and the number of corrections applied.
-    """
-    utol = FINAL_UTOL if utol is None else utol
-    max_iterations = POLISH_ITERATIONS if max_iterations is None else max_iterations
-    free = problem.free
-    nu_free = free < problem.nu_dof
-    w = np.array(w, dtype=float)
-    previous, n = first, 0
-    for _ in range(max_iterations):
-        r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
-        stats.residual_evaluations += 1
-        if not (Jmin > 0 and np.all(np.isfinite(r))):
-            break
-        try:
-            du = timed(stats, "linear_solve_s", linear.solve, -r[free])
-        except LinearSolverError:
-            break
-        size = float(np.abs(du[nu_free]).max()) if np.any(nu_free) else 0.0
-        if not (np.isfinite(size) and size <= (previous if n == 0 else 0.5 * previous)):
-            break
-        w[free] += du
-        n, previous = n + 1, size
-        if size <= utol:
-            break
-    return w, n
+    @classmethod
+    def of_path(cls, out):
+        """The outcome of :func:`~skfem_sheet.continuation.follow_path` on the
+        mesh ``hmax``."""
+        return cls(w=out.w, kappa=out.kappa, g=out.g, steps=tuple(out.steps),
+                   snaps=tuple(out.snaps), rejected_steps=out.rejected_steps,
+                   stable=out.stable, negative_eigenvalues=out.negative_eigenvalues,
+                   converged=out.converged, reason=out.reason)
 
 
 def _newton_from(src, w_src, dst, kappa, g, linear, opts, stats, guard):
@@ -780,10 +752,10 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
         what = "unknown" if stable is None else f"unstable ({k} negative eigenvalue(s))"
         return None, f"fine end state {what}"
     report(1.0)
-    return _Finished(w=res.w, kappa=coarse.kappa, g=coarse.g,
-                     steps=steps + (("fine", 1.0, res.iterations),),
-                     snaps=snaps, rejected_steps=rejected,
-                     stable=stable, negative_eigenvalues=k, resume=note), ""
+    return _Reached(w=res.w, kappa=coarse.kappa, g=coarse.g,
+                    steps=steps + (("fine", 1.0, res.iterations),),
+                    snaps=snaps, rejected_steps=rejected,
+                    stable=stable, negative_eigenvalues=k, resume=note), ""
 
 
 def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_options, stats,
@@ -878,12 +850,12 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     for frame in frames:
         on_step(*frame)
     report(1.0)
-    return _Finished(w=rest.w, kappa=rest.kappa, g=rest.g, steps=steps,
-                     snaps=before + tuple(probe.snaps) + (() if rest is probe else
-                                                          tuple(rest.snaps)),
-                     rejected_steps=rejected, stable=rest.stable,
-                     negative_eigenvalues=rest.negative_eigenvalues, resume=where,
-                     own_frames=True), ""
+    return _Reached(w=rest.w, kappa=rest.kappa, g=rest.g, steps=steps,
+                    snaps=before + tuple(probe.snaps) + (() if rest is probe else
+                                                         tuple(rest.snaps)),
+                    rejected_steps=rejected, stable=rest.stable,
+                    negative_eigenvalues=rest.negative_eigenvalues, resume=where,
+                    own_frames=True), ""
 
 
 def _branch(path, snaps):

@@ -1,5 +1,5 @@
-"""newton.timed (the time of a call is added to the counter, also on errors) and the
-pseudo-transient settle."""
+"""newton.timed (the time of a call is added to the counter, also on errors), the
+pseudo-transient settle and the polish of an end state with the last factorisation."""
 import time
 
 import numpy as np
@@ -9,7 +9,7 @@ from skfem_sheet import Sheet
 from skfem_sheet.analyses.stability import stability
 from skfem_sheet.continuation import StepOptions, _unstable_direction, follow_path
 from skfem_sheet.linalg import make_linear_solver
-from skfem_sheet.newton import NewtonOptions, Stats, newton, pseudo_transient, timed
+from skfem_sheet.newton import NewtonOptions, Stats, newton, polish, pseudo_transient, timed
 from skfem_sheet.params import ParameterError
 from skfem_sheet.solve import build_problem
 
@@ -142,3 +142,33 @@ def test_bad_linearization_raises():
         NewtonOptions(linearization="secant")
     with pytest.raises(ParameterError, match="mip_threshold"):
         NewtonOptions(mip_threshold=-1.0)
+
+
+def test_polish_applies_corrections_until_final_utol():
+    # solve's end-state polish (FINAL_UTOL, POLISH_ITERATIONS)
+    from skfem_sheet.solve import FINAL_UTOL, POLISH_ITERATIONS
+
+    sheet = Sheet(length=0.8, curvature=2.0)
+    problem = build_problem(sheet, 0.15, None, 2, half=True)
+    linear = make_linear_solver("auto")
+    res = newton(problem, np.zeros(problem.ndof), 1.0, linear, NewtonOptions(max_iterations=30),
+                 Stats())
+    assert res.converged
+    stats = Stats()
+    w, n = polish(problem, res.w, 1.0, linear, stats, utol=FINAL_UTOL,
+                  max_iterations=POLISH_ITERATIONS)
+    assert n >= 1 and stats.factorizations == 0
+    free = problem.free
+    r0 = np.linalg.norm(problem.residual(res.w, 1.0)[0][free])
+    r1 = np.linalg.norm(problem.residual(w, 1.0)[0][free])
+    assert r1 < 1e-2 * r0
+    # the next correction is below FINAL_UTOL
+    du = linear.solve(-problem.residual(w, 1.0)[0][free])
+    assert np.abs(du[free < problem.nu_dof]).max() <= FINAL_UTOL
+    # nothing applied without iterations, or if the first correction exceeds `first`
+    # (a state not solved to that tolerance): the state is kept
+    same, k = polish(problem, res.w, 1.0, linear, Stats(), utol=FINAL_UTOL, max_iterations=0)
+    assert k == 0 and np.array_equal(same, res.w)
+    same, k = polish(problem, res.w, 1.0, linear, Stats(), utol=FINAL_UTOL,
+                     max_iterations=POLISH_ITERATIONS, first=1e-300)
+    assert k == 0 and np.array_equal(same, res.w)

@@ -181,33 +181,6 @@ def test_both_starts_are_polished_to_the_same_deflection(path):
     assert full.to_record()["polish_iterations"] == full.polish_iterations
 
 
-def test_polish_applies_corrections_until_final_utol():
-    from skfem_sheet.solve import FINAL_UTOL, _polish, build_problem
-
-    sheet = Sheet(length=0.8, curvature=2.0)
-    problem = build_problem(sheet, 0.15, None, 2, half=True)
-    linear = make_linear_solver("auto")
-    res = newton(problem, np.zeros(problem.ndof), 1.0, linear, NewtonOptions(max_iterations=30),
-                 Stats())
-    assert res.converged
-    stats = Stats()
-    w, n = _polish(problem, res.w, 1.0, linear, stats)
-    assert n >= 1 and stats.factorizations == 0
-    free = problem.free
-    r0 = np.linalg.norm(problem.residual(res.w, 1.0)[0][free])
-    r1 = np.linalg.norm(problem.residual(w, 1.0)[0][free])
-    assert r1 < 1e-2 * r0
-    # the next correction is below FINAL_UTOL
-    du = linear.solve(-problem.residual(w, 1.0)[0][free])
-    assert np.abs(du[free < problem.nu_dof]).max() <= FINAL_UTOL
-    # nothing applied without iterations, or if the first correction exceeds `first`
-    # (a state not solved to that tolerance): the state is kept
-    same, k = _polish(problem, res.w, 1.0, linear, Stats(), max_iterations=0)
-    assert k == 0 and np.array_equal(same, res.w)
-    same, k = _polish(problem, res.w, 1.0, linear, Stats(), first=1e-300)
-    assert k == 0 and np.array_equal(same, res.w)
-
-
 def test_a_failed_fine_finish_falls_back(monkeypatch):
     # a transferred state that Newton cannot finish (here: the reference state
     # at full load, whose first correction exceeds the branch guard) must not
