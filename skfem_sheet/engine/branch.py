@@ -6,8 +6,10 @@
     fixed parameter; steps grow after easy corrections and are halved after
     failures.  A failed step (Newton failed, the inertia changed, or the
     state jumped) triggers an attempt to locate a fold from the last
-    equilibrium (:func:`~skfem_sheet.engine.fold.locate_fold`); a fold inside
-    the failed step ends the branch there, located to the Newton tolerance.
+    equilibrium (:func:`~skfem_sheet.engine.fold.locate_fold`; at the last
+    step before the branch is given up, approached along the branch where
+    Newton on the fold system fails from there); a fold inside the failed
+    step ends the branch there, located to the Newton tolerance.
 :func:`arclength`
     pseudo-arclength continuation in ``(u, p_i)``: the equilibrium equations
     bordered by ``<t_u, u - u_k> + t_p (p_i - p_k) = ds``, solved by block
@@ -39,13 +41,18 @@ import numpy as np
 from ..params import ParameterError, check_range
 from .corrector import (
     DEFAULT_TOLERANCES,
-    Bordered,
     NewtonResult,
     Tolerances,
     correct,
     plain_linearization,
 )
-from .fold import FoldSystem, fold_point, locate_fold
+from .fold import (
+    arclength_point,
+    fold_between,
+    locate_fold,
+    tangent_at,
+    unit_tangent,
+)
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
 __all__ = ["Branch", "BranchPoint", "arclength", "natural", "sweep"]
@@ -147,7 +154,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
             progress=None, growth: float = 1.5, grow_after=3, bracket=None,
             inertia_change: bool = True, check=None, before_step=None, on_step=None,
-            linearization=None, start=None) -> Branch:
+            linearization=None, start=None, approach: int = 8) -> Branch:
     """Natural continuation in one parameter with fold detection and location.
 
     Parameters
@@ -201,6 +208,15 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     start : (u, factorization), optional
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
+    approach : int
+        At the last failed step (the branch given up), the fold is located
+        with this ``approach`` (:func:`~skfem_sheet.engine.fold.locate_fold`:
+        at most this many arclength corrections along the branch towards the
+        fold where Newton on the fold system fails from the last point; 0:
+        none).  Near a fold flat in the parameter Newton at fixed parameter
+        fails within ``min_step`` of it and the fold system's basin can be
+        smaller than that (the sheet at hmax 0.2, a/R 2.5: 1e-4 from its
+        pop-up fold).
 
     Returns
     -------
@@ -226,6 +242,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     max_step = step if max_step is None else check_range("max_step", max_step, step, None)
     growth = check_range("growth", growth, 1.0, None)
     end_at = min_step if bracket is None else check_range("bracket", bracket, min_step, None)
+    approach = int(check_range("approach", approach, 0, 1000))
     direction = 1.0 if stop >= p[i] else -1.0
 
     def finish(points, folds=(), completed=False, reason="", bracket=()):
@@ -281,9 +298,14 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             grow = grow_after is None or res.iterations <= grow_after
             h = min(max_step, h * (growth if grow else 1.0))
             continue
+        last_try = abs(lam_try - p[i]) <= end_at * (1 + 1e-9)
         if locate:
+            # approached along the branch (if Newton on the fold system fails)
+            # only before the branch is given up: after a failed step far from
+            # a fold the approach would be spent for nothing
             fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
-                                  check_inertia=check_inertia)
+                                  check_inertia=check_inertia,
+                                  approach=approach if last_try else 0)
             # a fold ahead, within the failed step (Newton at fixed parameter
             # also fails just before a fold, so allow twice the step)
             # and a turning point of this branch: solutions exist behind it
@@ -292,7 +314,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
                     and fold.side != direction):
                 return finish(points, [fold], reason=f"fold at {fold.value:.10g} ({why})",
                               bracket=(float(p[i]), float(lam_try)))
-        if abs(lam_try - p[i]) <= end_at * (1 + 1e-9):
+        if last_try:
             return finish(points, reason=(f"step below min_step ({why})" if bracket is None
                                           else why),
                           bracket=(float(p[i]), float(lam_try)))
@@ -370,93 +392,6 @@ def sweep(problem, u0, p0, param, values, *, tol: Tolerances = DEFAULT_TOLERANCE
     return tuple(out)
 
 
-def _unit_tangent(counter, t_u, t_p, prev=None):
-    n = np.sqrt(counter.inner(t_u, t_u) + t_p**2)
-    t_u, t_p = t_u / n, t_p / n
-    if prev is not None and counter.inner(t_u, prev[0]) + t_p * prev[1] < 0:
-        t_u, t_p = -t_u, -t_p
-    return t_u, float(t_p)
-
-
-def _arclength_point(counter, i, t, u_ref, p_ref, h, tol):
-    """The equilibrium at arclength ``h`` along the unit tangent ``t`` from
-    ``(u_ref, p_ref)`` (``res.extra`` is its bordered matrix)."""
-    t_u, t_p = t
-
-    def linearize(uu, pp):
-        r = counter.residual(uu, pp)
-        if not np.all(np.isfinite(r)):
-            raise EngineFailure("non-finite residual")
-        J = counter.jacobian(uu, pp)
-        f = counter.factorize(J)
-        N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
-        M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
-                     counter.dual(t_u)[:, None], [[t_p]])
-        du, dq = M.solve(-r, [-N])
-        dp = np.zeros_like(pp)
-        dp[i] = dq[0]
-        return counter.residual_norm(r), du, dp, f, M
-
-    p_pred = p_ref.copy()
-    p_pred[i] += h * t_p
-    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
-
-
-def _tangent_at(counter, res, prev):
-    """Unit tangent at a corrected point from its bordered matrix:
-    ``[[K, R_p], [t_prev^T]] t = [0; 1]``."""
-    tu_new, tp_new = res.extra.solve(np.zeros(len(res.u)), [1.0])
-    return _unit_tangent(counter, tu_new, float(tp_new[0]), prev=prev)
-
-
-def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9,
-                   max_iterations=40):
-    """The fold between ``(u, p)`` and the point at arclength ``h``: regula
-    falsi (Illinois) on the tangent's parameter component ``t_p(s)``, each
-    evaluation an arclength correction; then the fold system from there."""
-    s0, f0, s1, f1 = 0.0, t[1], h, t_end[1]
-    best, side = None, 0
-    for _ in range(max_iterations):
-        s = s1 - f1 * (s1 - s0) / (f1 - f0)
-        res = _arclength_point(counter, i, t, u, p, s, tol)
-        if not res.converged:
-            return None
-        try:
-            ts = _tangent_at(counter, res, t)
-        except EngineFailure:
-            return None
-        best = (res, ts)
-        if abs(s1 - s0) <= s_tol or ts[1] == 0:
-            break
-        if np.sign(ts[1]) == np.sign(f1):
-            s1, f1 = s, ts[1]
-            if side == 1:
-                f0 *= 0.5
-            side = 1
-        else:
-            s0, f0 = s, ts[1]
-            if side == -1:
-                f1 *= 0.5
-            side = -1
-        if abs(s1 - s0) <= s_tol:
-            break
-    if best is None:
-        return None
-    res, ts = best
-    fold, _ = locate_fold(counter, res.u, res.p, i, v0=ts[0], tol=tol,
-                          check_inertia=check_inertia)
-    if fold is not None:
-        return fold
-    # the fold system still does not converge: the point where t_p = 0 is the fold
-    system = FoldSystem(counter, ts[0], [i])
-    try:
-        system(res.u, res.p)
-    except EngineFailure:
-        return None
-    out = NewtonResult(res.u, res.p, True, 0, "", (), None, Stats(), system.last)
-    return fold_point(counter, out, i, check_inertia, 1e-4, Stats())
-
-
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
@@ -524,7 +459,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         return finish([], [], reason=f"the first point did not converge: {res.reason}")
     u, p, fact = res.u, res.p, res.factorization
     try:
-        t = _unit_tangent(counter, fact.solve(-counter.dresidual(u, p, i)), 1.0)
+        t = unit_tangent(counter, fact.solve(-counter.dresidual(u, p, i)), 1.0)
     except EngineFailure as err:
         return finish([], [], reason=f"tangent at the first point: {err}")
     if t[1] * direction < 0:
@@ -535,7 +470,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     folds = []
     h = ds
     while len(points) < max_points:
-        res = _arclength_point(counter, i, t, u, p, h, tol)
+        res = arclength_point(counter, i, t, u, p, h, tol)
         if not res.converged:
             h *= 0.5
             if h < ds_min:
@@ -543,7 +478,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
                               f"p = {p[i]:.6g} (Newton: {res.reason})")
             continue
         try:
-            t_new = _tangent_at(counter, res, t)
+            t_new = tangent_at(counter, res, t)
         except EngineFailure as err:
             return finish(points, folds, reason=f"tangent: {err}")
         k_new = res.factorization.inertia()
@@ -553,13 +488,7 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         new_point = BranchPoint(res.p.copy(), res.u, k_new, res.iterations, t_new[1],
                                 prev_point.s + h)
         if locate and np.sign(t_new[1]) != np.sign(t[1]):
-            # a fold between the points: start from the one nearer to it
-            near_u, near_p, near_t = ((u, p, t) if abs(t[1]) < abs(t_new[1])
-                                      else (res.u, res.p, t_new))
-            fold, _ = locate_fold(counter, near_u, near_p, i, v0=near_t[0], tol=tol,
-                                  check_inertia=check_inertia)
-            if fold is None:  # outside Newton's basin for the fold system: t_p = 0 first
-                fold = _turning_point(counter, i, t, u, p, h, t_new, tol, check_inertia)
+            fold = fold_between(counter, i, t, u, p, h, res, t_new, tol, check_inertia)
             if fold is not None:
                 folds.append(fold)
         points.append(new_point)

@@ -21,7 +21,11 @@ exist on the side ``-sign(a v . R_{p_i})`` of the fold.
 
 A fold is located by Newton's method on ``R = 0, sigma = 0`` in ``(u, p_i)``:
 each iteration costs one factorisation (the bordered solves are
-back-substitutions with it).
+back-substitutions with it).  Where that fails from an equilibrium, the fold
+can be approached along the branch first (pseudo-arclength steps until the
+tangent turns in ``p_i``, :func:`locate_fold` with ``approach``): the fold
+system's basin is small where the fold is flat in the parameter and the
+branch curves strongly in a stiff direction of the state.
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..params import check_range
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
@@ -165,6 +170,10 @@ class FoldSystem:
         self.c, self.v0, self.idx = counter, _unit(v0), list(idx)
         self.arclength = arclength  # (t_u, t_p (all params), u_ref, p_ref, ds) or None
         self.last = None
+        #: The first linearisation: ``{"residual", "du", "dp", "dudp"}`` (the
+        #: residual norm and the Newton correction at the start, and the
+        #: tangents ``du/dp_idx`` there, one column per free parameter).
+        self.first = None
 
     def sigma_derivatives(self, u, p, v, J):
         """``d sigma/du`` and ``d sigma/dp_idx`` by differences of tangents:
@@ -236,7 +245,11 @@ class FoldSystem:
         self.last = {"v": v, "sigma": sigma, "a": a, "R_p": R_p, "g_u": g_u, "g_p": g_p,
                      "bordered": M, "inertia": fact.inertia()}
         self.v0 = v
-        return c.residual_norm(r), du, dp, fact, self.last
+        rn = c.residual_norm(r)
+        if self.first is None:
+            self.first = {"residual": rn, "du": du, "dp": dp,
+                          "dudp": -Y[:, 1:1 + len(self.idx)]}
+        return rn, du, dp, fact, self.last
 
 
 def negative_besides_critical(inertia, sigma):
@@ -269,12 +282,167 @@ def fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stats
                      res.iterations, stats)
 
 
+def unit_tangent(counter, t_u, t_p, prev=None):
+    n = np.sqrt(counter.inner(t_u, t_u) + t_p**2)
+    t_u, t_p = t_u / n, t_p / n
+    if prev is not None and counter.inner(t_u, prev[0]) + t_p * prev[1] < 0:
+        t_u, t_p = -t_u, -t_p
+    return t_u, float(t_p)
+
+
+def arclength_point(counter, i, t, u_ref, p_ref, h, tol):
+    """The equilibrium at arclength ``h`` along the unit tangent ``t`` from
+    ``(u_ref, p_ref)`` (``res.extra`` is its bordered matrix)."""
+    t_u, t_p = t
+
+    def linearize(uu, pp):
+        r = counter.residual(uu, pp)
+        if not np.all(np.isfinite(r)):
+            raise EngineFailure("non-finite residual")
+        J = counter.jacobian(uu, pp)
+        f = counter.factorize(J)
+        N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
+        M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
+                     counter.dual(t_u)[:, None], [[t_p]])
+        du, dq = M.solve(-r, [-N])
+        dp = np.zeros_like(pp)
+        dp[i] = dq[0]
+        return counter.residual_norm(r), du, dp, f, M
+
+    p_pred = p_ref.copy()
+    p_pred[i] += h * t_p
+    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
+
+
+def tangent_at(counter, res, prev):
+    """Unit tangent at a corrected point from its bordered matrix:
+    ``[[K, R_p], [t_prev^T]] t = [0; 1]``."""
+    tu_new, tp_new = res.extra.solve(np.zeros(len(res.u)), [1.0])
+    return unit_tangent(counter, tu_new, float(tp_new[0]), prev=prev)
+
+
+def _turning_point(counter, i, t, u, p, h, t_end, tol, check_inertia, s_tol=1e-9,
+                   max_iterations=40):
+    """The fold between ``(u, p)`` and the point at arclength ``h``: regula
+    falsi (Illinois) on the tangent's parameter component ``t_p(s)``, each
+    evaluation an arclength correction; then the fold system from there."""
+    s0, f0, s1, f1 = 0.0, t[1], h, t_end[1]
+    best, side = None, 0
+    for _ in range(max_iterations):
+        s = s1 - f1 * (s1 - s0) / (f1 - f0)
+        res = arclength_point(counter, i, t, u, p, s, tol)
+        if not res.converged:
+            return None
+        try:
+            ts = tangent_at(counter, res, t)
+        except EngineFailure:
+            return None
+        best = (res, ts)
+        if abs(s1 - s0) <= s_tol or ts[1] == 0:
+            break
+        if np.sign(ts[1]) == np.sign(f1):
+            s1, f1 = s, ts[1]
+            if side == 1:
+                f0 *= 0.5
+            side = 1
+        else:
+            s0, f0 = s, ts[1]
+            if side == -1:
+                f1 *= 0.5
+            side = -1
+        if abs(s1 - s0) <= s_tol:
+            break
+    if best is None:
+        return None
+    res, ts = best
+    fold, _ = locate_fold(counter, res.u, res.p, i, v0=ts[0], tol=tol,
+                          check_inertia=check_inertia, approach=0)
+    if fold is not None:
+        return fold
+    # the fold system still does not converge: the point where t_p = 0 is the fold
+    system = FoldSystem(counter, ts[0], [i])
+    try:
+        system(res.u, res.p)
+    except EngineFailure:
+        return None
+    out = NewtonResult(res.u, res.p, True, 0, "", (), None, Stats(), system.last)
+    return fold_point(counter, out, i, check_inertia, 1e-4, Stats())
+
+
+def fold_between(counter, i, t, u, p, h, res, t_new, tol, check_inertia):
+    """The fold between the equilibrium ``(u, p)`` (unit tangent ``t``) and
+    the point ``res`` at arclength ``h`` along it (unit tangent ``t_new``),
+    whose tangents' parameter components differ in sign: Newton on the fold
+    system from the point nearer to it (the smaller ``|t_p|``), else
+    :func:`_turning_point`.  None if neither converges."""
+    near_u, near_p, near_t = ((u, p, t) if abs(t[1]) < abs(t_new[1])
+                              else (res.u, res.p, t_new))
+    fold, _ = locate_fold(counter, near_u, near_p, i, v0=near_t[0], tol=tol,
+                          check_inertia=check_inertia, approach=0)
+    if fold is None:  # outside Newton's basin for the fold system: t_p = 0 first
+        fold = _turning_point(counter, i, t, u, p, h, t_new, tol, check_inertia)
+    return fold
+
+
+def _approach(counter, i, u, p, first, tol, check_inertia, max_points):
+    """The fold near the equilibrium ``(u, p)`` where Newton on the fold
+    system from there failed: pseudo-arclength steps along the branch
+    towards the fold until the tangent's parameter component changes sign,
+    then :func:`fold_between` the last two points.
+
+    The steps are half as long as the first correction of the fold system
+    (``first``, :attr:`FoldSystem.first`) and go its way: near a quadratic
+    fold that correction is the straight line to the fold's state (with twice
+    the parameter distance: it overshoots the fold in the parameter), so
+    the sign change comes after about two steps.  Each step is an arclength
+    correction, regular at the fold, from an equilibrium close to the last:
+    it stays inside Newton's basin where the fold system's full step (onto
+    the straight line, off the curved branch) does not.  A step that does
+    not converge is halved (four times at most).  None after ``max_points``
+    corrections without a sign change."""
+    du, dq = first["du"], float(first["dp"][i])
+    h = 0.5 * float(np.sqrt(counter.inner(du, du) + dq**2))
+    if not (h > 0 and np.isfinite(h)):
+        return None
+    t = unit_tangent(counter, first["dudp"][:, 0], 1.0)
+    if counter.inner(t[0], du) + t[1] * dq < 0:
+        t = (-t[0], -t[1])
+    h_min = h / 16
+    for _ in range(max_points):
+        res = arclength_point(counter, i, t, u, p, h, tol)
+        if not res.converged:
+            h *= 0.5
+            if h < h_min * (1 - 1e-12):
+                return None
+            continue
+        try:
+            t_new = tangent_at(counter, res, t)
+        except EngineFailure:
+            return None
+        if np.sign(t_new[1]) != np.sign(t[1]):
+            return fold_between(counter, i, t, u, p, h, res, t_new, tol, check_inertia)
+        u, p, t = res.u, res.p, t_new
+    return None
+
+
 def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLERANCES,
-                check_inertia: bool = False, inertia_step: float = 1e-4):
+                check_inertia: bool = False, inertia_step: float = 1e-4, approach: int = 0):
     """Locate a fold in parameter ``param`` near ``(u, p)``.
 
     Newton's method on ``R(u, p) = 0, sigma(u, p) = 0`` in ``(u, p_param)``,
-    the other parameters fixed.
+    the other parameters fixed.  With ``approach``, if that fails from an
+    equilibrium (residual at the start within ``tol.rtol``), the fold is
+    approached along the branch first: pseudo-arclength steps from ``(u, p)`` the way of the
+    fold system's first correction, half as long, until the tangent's
+    parameter component changes sign, and Newton on the fold system from the
+    nearer of those two points (else the point between them where it
+    vanishes).  Newton's basin for the fold system can be much smaller than
+    for the equilibrium: its first step from a point of the branch goes
+    straight to the fold's state (overshooting it in the parameter by the
+    same distance), off a branch that curves strongly in the state where the
+    fold is flat in the parameter (a thin sheet at hmax 0.2: 1e-4 from the
+    fold in L the state is 0.01 away, and that first step leaves a residual
+    of 4 times the weight).
 
     Parameters
     ----------
@@ -292,10 +460,18 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
         report the negative eigenvalue counts there (``FoldPoint.crossing``).
     inertia_step : float
         ``e`` relative to ``max(1, max |u|)``.
+    approach : int
+        Most arclength corrections of the approach along the branch (0, the
+        default: Newton on the fold system only; :func:`natural` approaches
+        at its last step, with 8).  Off by default because callers with a
+        fallback of their own (a fresh mesh, another section) may prefer it.
 
     Returns
     -------
     (FoldPoint or None, NewtonResult)
+        The result of Newton on the fold system; after an approach, one
+        result for all the work (``iterations``: every linearisation,
+        ``stats`` all of it).
 
     Examples
     --------
@@ -305,7 +481,29 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     >>> fold, _ = locate_fold(P, np.array([0.7]), np.array([0.38]), "lam")
     >>> bool(abs(fold.value - 2 / (3 * np.sqrt(3))) < 1e-12), fold.side
     (True, -1)
+
+    A fold flat in the parameter on a branch curved in the state, ``y = 10
+    x^2``, ``lam = x^2``, with the stiffness ``1e5`` along ``y`` (energy
+    ``1e5 (y - 10 x^2)^2 / 2 + x^3 / 3 - lam x``): from the equilibrium at
+    ``x = 0.01`` Newton on the fold system diverges; approached along the
+    branch, the fold is located.
+
+    >>> def R(u, p):
+    ...     m = u[1] - 10 * u[0]**2
+    ...     return np.array([-2e6 * u[0] * m + u[0]**2 - p[0], 1e5 * m])
+    >>> def K(u, p):
+    ...     m = u[1] - 10 * u[0]**2
+    ...     return np.array([[-2e6 * m + 4e7 * u[0]**2 + 2 * u[0], -2e6 * u[0]],
+    ...                      [-2e6 * u[0], 1e5]])
+    >>> P = FunctionProblem(R, K, ("lam",))
+    >>> u0, p0 = np.array([0.01, 10 * 0.01**2]), np.array([0.01**2])
+    >>> locate_fold(P, u0, p0, "lam")[1].reason
+    'diverging'
+    >>> fold, res = locate_fold(P, u0, p0, "lam", approach=8)
+    >>> bool(abs(fold.value) < 1e-12), fold.side, res.converged
+    (True, 1, True)
     """
+    approach = int(check_range("approach", approach, 0, 1000))
     counter = problem if isinstance(problem, Counting) else Counting(problem)
     start = counter.stats()
     u = np.array(u, dtype=float)
@@ -319,11 +517,20 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
             v0 = np.ones_like(u)
     system = FoldSystem(counter, v0, [i])
     res = correct(counter, u, p, system, tol)
-    if not res.converged:
+    if res.converged:
+        fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
+        return FoldPoint(**{**fold.__dict__, "stats": counter.stats() - start}), res
+    first = system.first
+    if not (approach and first is not None and first["residual"] <= tol.rtol):
         return None, res
-    fold = fold_point(counter, res, i, check_inertia, inertia_step, None)
+    fold = _approach(counter, i, u, p, first, tol, check_inertia, approach)
     stats = counter.stats() - start
-    return FoldPoint(**{**fold.__dict__, "stats": stats}), res
+    if fold is None:
+        return None, NewtonResult(res.u, res.p, False, stats.newton_iterations,
+                                  f"{res.reason}; the approach along the branch failed too",
+                                  res.history, res.factorization, stats, res.extra)
+    out = NewtonResult(fold.u, fold.p, True, stats.newton_iterations, "", (), None, stats)
+    return FoldPoint(**{**fold.__dict__, "stats": stats}), out
 
 
 def fold_on_section(problem, u, p, params, section, *, v0, tol: Tolerances = DEFAULT_TOLERANCES):
