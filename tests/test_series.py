@@ -193,15 +193,13 @@ def test_cli_bistability_series(tmp_path):
         assert float(m.field_data["parameter"][0]) == pytest.approx(L)
 
 
-def test_s_curve_series_through_both_folds(tmp_path):
+def test_s_curve_series_through_both_folds(tmp_path, rectangle_s_curve):
     """The S-curve as a series: L goes up, back between the folds and up again; the time is
     the distance travelled in L (strictly increasing), each VTU keeps its length and its
     stability, and the frames between the folds are the unstable middle branch."""
-    from skfem_sheet.bistability import s_curve
-
-    s = Series()
-    sc = s_curve(Sheet(length=1.2, curvature=2.5), 1.45, hmax=0.2, ds=0.1, ds_max=0.4,
-                 on_point=s.on_point)
+    # s_curve(Sheet(length=1.2, curvature=2.5), 1.45, hmax=0.2, ds=0.1, ds_max=0.4,
+    # on_point=Series().on_point), shared with test_bistability (conftest.py)
+    sc, s = rectangle_s_curve
     assert sc.converged and len(sc.folds) == 2
     entries = read_pvd(sc.write_series(tmp_path, "s-curve", s))
     assert len(entries) == len(sc.points)
