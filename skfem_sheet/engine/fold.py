@@ -294,6 +294,21 @@ def arclength_point(counter, i, t, u_ref, p_ref, h, tol):
     """The equilibrium at arclength ``h`` along the unit tangent ``t`` from
     ``(u_ref, p_ref)`` (``res.extra`` is its bordered matrix)."""
     t_u, t_p = t
+    linearize = section_linearization(
+        counter, i, t_u, t_p,
+        lambda uu, pp: counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h)
+    p_pred = p_ref.copy()
+    p_pred[i] += h * t_p
+    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
+
+
+def section_linearization(counter, i, t_u, t_pi, distance):
+    """Newton's linearisation of an equilibrium with the parameter ``p[i]``
+    free on a linear section ``distance(u, p) = 0`` whose gradient is
+    ``(t_u, t_pi)``: the bordered system ``[[K, R_p], [t_u^T, t_pi]]``
+    (one factorisation of ``K``; ``extra`` is the :class:`Bordered` matrix).
+    The one such linearisation of the arclength step and of
+    :func:`equilibrium_on_section`."""
 
     def linearize(uu, pp):
         r = counter.residual(uu, pp)
@@ -301,17 +316,15 @@ def arclength_point(counter, i, t, u_ref, p_ref, h, tol):
             raise EngineFailure("non-finite residual")
         J = counter.jacobian(uu, pp)
         f = counter.factorize(J)
-        N = counter.inner(t_u, uu - u_ref) + t_p * (pp[i] - p_ref[i]) - h
+        N = distance(uu, pp)
         M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
-                     counter.dual(t_u)[:, None], [[t_p]])
+                     counter.dual(t_u)[:, None], [[t_pi]])
         du, dq = M.solve(-r, [-N])
         dp = np.zeros_like(pp)
         dp[i] = dq[0]
         return counter.residual_norm(r), du, dp, f, M
 
-    p_pred = p_ref.copy()
-    p_pred[i] += h * t_p
-    return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
+    return linearize
 
 
 def tangent_at(counter, res, prev):
@@ -631,19 +644,7 @@ def equilibrium_on_section(problem, u, p, param, section, *,
     t_u, t_p, c = section
     t_u = np.asarray(t_u, dtype=float)
     t_p = np.asarray(t_p, dtype=float)
-
-    def linearize(uu, pp):
-        r = counter.residual(uu, pp)
-        if not np.all(np.isfinite(r)):
-            raise EngineFailure("non-finite residual")
-        J = counter.jacobian(uu, pp)
-        fact = counter.factorize(J)
-        N = counter.inner(t_u, uu) + float(t_p @ pp) - float(c)
-        M = Bordered(fact, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
-                     counter.dual(t_u)[:, None], np.array([[t_p[i]]]))
-        du, dq = M.solve(-r, np.array([-N]))
-        dp = np.zeros_like(pp)
-        dp[i] = dq[0]
-        return counter.residual_norm(r), du, dp, fact, None
-
+    linearize = section_linearization(
+        counter, i, t_u, t_p[i],
+        lambda uu, pp: counter.inner(t_u, uu) + float(t_p @ pp) - float(c))
     return correct(counter, np.array(u, dtype=float), p, linearize, tol)
