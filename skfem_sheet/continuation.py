@@ -188,18 +188,25 @@ class PathOutcome:
     moves: list = field(default_factory=list)
 
 
-def load_phases(path: str, kappa: float):
-    """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs."""
+def load_phases(path: str, kappa: float, gravity: float = 1.0):
+    """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs.
+
+    ``gravity`` is the full gravity factor (1: the sheet's own weight); a
+    phase whose load is zero is left out (no phase at all for ``kappa = 0``
+    and ``gravity = 0``: the reference state is the answer).
+    """
     if path not in PATHS:
         raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
     if path == "curvature-first":
         phases = [("curvature", lambda lam: (lam * kappa, 0.0)),
-                  ("gravity", lambda lam: (kappa, lam))]
+                  ("gravity", lambda lam: (kappa, lam * gravity))]
     else:
-        phases = [("gravity", lambda lam: (0.0, lam)),
-                  ("curvature", lambda lam: (lam * kappa, 1.0))]
+        phases = [("gravity", lambda lam: (0.0, lam * gravity)),
+                  ("curvature", lambda lam: (lam * kappa, gravity))]
     if kappa == 0.0:
         phases = [p for p in phases if p[0] == "gravity"]
+    if gravity == 0.0:
+        phases = [p for p in phases if p[0] == "curvature"]
     return phases
 
 
@@ -342,11 +349,11 @@ def _predict(w, dw, lam, lam_new, prev):
     return w + h * dw + h**2 * c
 
 
-def _elastica_jump(problem, solver, stats, final, tight, loose):
-    w = elastica_state(problem, 1.0)
+def _elastica_jump(problem, solver, stats, final, tight, loose, gravity=1.0):
+    w = elastica_state(problem, gravity)
     if w is None:
         return None
-    return newton(problem, w, 1.0, solver, tight if final else loose, stats)
+    return newton(problem, w, gravity, solver, tight if final else loose, stats)
 
 
 def _negatives(problem, solver):
@@ -504,7 +511,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 newton_options: NewtonOptions = NewtonOptions(),
                 step_options: StepOptions = StepOptions(),
                 stats: Stats | None = None, w0=None, progress=None,
-                on_step=None, resume: tuple | None = None) -> PathOutcome:
+                on_step=None, resume: tuple | None = None,
+                gravity: float = 1.0) -> PathOutcome:
     """Run a load path from the reference state (or ``w0``) to full load.
 
     Parameters
@@ -519,6 +527,8 @@ def follow_path(problem, path: str, kappa: float, solver, *,
         Called after each accepted step with its state and load.
     w0 : ndarray or None
         Start state (default: the reference state, zero).
+    gravity : float
+        Full gravity factor (1: the sheet's own weight; 0: no gravity).
     resume : (phase, lam) or None
         Resume the path part-way: ``w0`` is an equilibrium at the load
         fraction ``lam`` of the phase named ``phase`` (``"curvature"`` or
@@ -556,7 +566,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
     and a ``reason`` that says it ended on an unstable equilibrium.
     """
     stats = stats if stats is not None else Stats()
-    phases = load_phases(path, kappa)
+    phases = load_phases(path, kappa, gravity)
     w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
     out = PathOutcome(w=w)
     first, lam0 = 0, 0.0
@@ -582,14 +592,15 @@ def follow_path(problem, path: str, kappa: float, solver, *,
         if (name == "gravity" and load(0.0)[0] == 0.0 and step_options.elastica_start
                 and not np.any(w)):
             # flat sheet from the reference state: start at full load from the elastica
-            res = _elastica_jump(problem, solver, stats, last_phase, newton_options, loose)
+            res = _elastica_jump(problem, solver, stats, last_phase, newton_options, loose,
+                                 gravity)
             if res is not None and res.converged:
                 w, lam = res.w, 1.0
-                out.w, out.kappa, out.g = w, 0.0, 1.0
+                out.w, out.kappa, out.g = w, 0.0, gravity
                 out.steps.append((name, lam, res.iterations))
                 have_factor = True
                 if on_step is not None:
-                    on_step(problem, w, 0.0, 1.0)
+                    on_step(problem, w, 0.0, gravity)
                 if progress is not None:
                     progress((iphase + lam) / len(phases))
             elif res is not None:

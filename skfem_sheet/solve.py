@@ -197,6 +197,9 @@ class Result:
         state of the coarse path (a late coarse snap, see :data:`LATE_SNAP`),
         e.g. ``"coarse path snapped late in its curvature phase (at 0.8);
         resumed at curvature 0.69"``; empty otherwise.
+    target_gravity : float
+        The full gravity load asked of :func:`solve` (``gravity``; a
+        fraction of the sheet's own weight); ``gravity`` is the load reached.
     polish_iterations : int
         Simplified-Newton corrections of the final polish (:data:`FINAL_UTOL`;
         their back-substitutions are counted in ``back_substitutions``).
@@ -237,6 +240,7 @@ class Result:
     coarse_newton_iterations: int = 0
     coarse_resume: str = ""
     polish_iterations: int = 0
+    target_gravity: float = 1.0
     problem: SheetProblem = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -299,6 +303,7 @@ class Result:
         ("coarse_newton_iterations", "int", lambda r: r.coarse_newton_iterations),
         ("coarse_resume", "str", lambda r: r.coarse_resume),
         ("polish_iterations", "int", lambda r: r.polish_iterations),
+        ("gravity", "float", lambda r: r.target_gravity),
     )
 
     def to_record(self) -> dict:
@@ -341,7 +346,7 @@ class Result:
         """
         rec = self.to_record()
         params = {k: rec.pop(k) for k in ("length", "tip_width", "curvature", "thickness",
-                                          "modulus", "hmax")}
+                                          "modulus", "gravity", "hmax")}
         params.update(layers=rec.pop("layers_used"), refine=rec.pop("refine"))
         out = {k: rec.pop(k) for k in (
             "deflection", "converged", "message", "path", "dofs", "newton_iterations",
@@ -393,7 +398,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False, series=None,
-          start: str = "coarse", coarse_hmax: float = COARSE_HMAX) -> Result:
+          start: str = "coarse", coarse_hmax: float = COARSE_HMAX,
+          gravity: float = 1.0) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -472,6 +478,10 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         Either way a converged end state is polished to :data:`FINAL_UTOL`
         by back-substitutions with the last factorisation
         (``polish_iterations``).
+    gravity : float
+        The gravity load as a fraction of the sheet's own weight, in [0, 10]
+        (default 1; 0: no gravity, the clamp's curvature alone, one phase
+        on both paths).
     coarse_hmax : float
         Mesh size of the coarse path; with ``coarse_hmax <= hmax`` the load
         path runs on the mesh ``hmax``.  The default, :data:`COARSE_HMAX`,
@@ -501,6 +511,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     if quadrature_order not in (2, 3, 4):
         raise ParameterError(f"quadrature_order must be one of 2, 3, 4, got {quadrature_order!r}")
     hmax = check_range("hmax", hmax, 0, None, lo_open=True)
+    gravity = check_range("gravity", gravity, 0, 10,
+                          hint="a fraction of the sheet's own weight")
     if not isinstance(symmetric, (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {symmetric!r}")
     if series is not None and not callable(getattr(series, "on_step", None)):
@@ -566,19 +578,20 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                 out, fallback = _coarse_to_fine(
                     problem, cproblem, path, sheet.curvature, solver, linear, newton_options,
                     step_options, stats, cstats, report, quadrature_order,
-                    hook)
+                    hook, gravity)
                 if out is not None and series is not None and not out.own_frames:
                     on_step(problem, out.w, out.kappa, out.g)
         if out is None:
             out = _Reached.of_path(follow_path(problem, path, sheet.curvature, linear,
                                                newton_options=newton_options,
                                                step_options=step_options, stats=stats,
-                                               progress=report, on_step=hook))
+                                               progress=report, on_step=hook,
+                                               gravity=gravity))
     finally:
         if bar is not None:
             bar.close()
     w, n_polish = out.w, 0
-    if out.converged or (out.kappa, out.g) == (sheet.curvature, 1.0):
+    if out.converged or (out.kappa, out.g) == (sheet.curvature, gravity):
         # both starts: the same tight end state (d to FINAL_UTOL, not utol); also
         # an end state at full load that failed its stability check (solved to
         # the full tolerance all the same)
@@ -611,7 +624,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         coarse_hmax=coarse_hmax, coarse_fallback=fallback,
         coarse_factorizations=cstats.factorizations,
         coarse_newton_iterations=cstats.newton_iterations,
-        coarse_resume=out.resume, polish_iterations=n_polish)
+        coarse_resume=out.resume, polish_iterations=n_polish, target_gravity=gravity)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
     return result
@@ -656,12 +669,14 @@ def _newton_from(src, w_src, dst, kappa, g, linear, opts, stats, guard):
     return newton(dst, w, g, linear, opts, stats, max_first_increment=guard), w
 
 
-def _resume_load(coarse, states, path, kappa):
+def _resume_load(coarse, states, path, kappa, gravity):
     """Where the fine path resumes after a late coarse snap: ``(index,
     lam_snap, why)``, the state in ``states`` (aligned with ``coarse.steps``)
     to resume from and the load of the snap, or ``None`` if the coarse path
     did not snap late in its last phase."""
-    phases = load_phases(path, kappa)
+    phases = load_phases(path, kappa, gravity)
+    if not phases:
+        return None
     last = phases[-1][0]
     late = [lam for phase, lam, _, _ in coarse.snaps
             if phase == last and lam >= 1 - LATE_SNAP]
@@ -683,7 +698,8 @@ def _resume_load(coarse, states, path, kappa):
 
 
 def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_options,
-                    step_options, stats, cstats, report, quadrature_order, on_step=None):
+                    step_options, stats, cstats, report, quadrature_order, on_step=None,
+                    gravity=1.0):
     """The load path on ``cproblem``, finished on ``problem`` at full load.
 
     Returns ``(outcome, "")`` if the coarse path's end state, transferred and
@@ -702,17 +718,18 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
     coarse = follow_path(cproblem, path, kappa, clinear, newton_options=newton_options,
                          step_options=step_options, stats=cstats,
                          progress=lambda f: report(0.9 * f),
-                         on_step=lambda pr, w, k, g: states.append(w.copy()))
+                         on_step=lambda pr, w, k, g: states.append(w.copy()),
+                         gravity=gravity)
     if not coarse.converged:
         return None, f"coarse path failed: {coarse.reason}"
     scale = max(1.0, problem.sheet.length)
-    resume = _resume_load(coarse, states, path, kappa)
+    resume = _resume_load(coarse, states, path, kappa, gravity)
     steps, snaps, rejected, note = (tuple(coarse.steps), tuple(coarse.snaps),
                                     coarse.rejected_steps, "")
     if resume is not None:
         done, info = _resume_fine(problem, cproblem, path, kappa, linear, newton_options,
                                   step_options, stats, report, coarse, states, *resume, scale,
-                                  on_step)
+                                  on_step, gravity)
         if done != "snapped":
             return done, info
         # the fine branch ended at the coarse fold: the sheet snaps there on the
@@ -759,7 +776,7 @@ def _coarse_to_fine(problem, cproblem, path, kappa, solver, linear, newton_optio
 
 
 def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_options, stats,
-                 report, coarse, states, index, lam_snap, why, scale, on_step):
+                 report, coarse, states, index, lam_snap, why, scale, on_step, gravity):
     """The load path on ``problem`` resumed from the coarse state
     ``states[index]`` (at the load of ``coarse.steps[index]``), after a late
     coarse snap at ``lam_snap`` (both from :func:`_resume_load`).
@@ -781,7 +798,7 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
     or ``("snapped", (steps, snaps, rejected_steps, note))`` for the caller to
     finish the coarse end state with that history.
     """
-    named = load_phases(path, kappa)
+    named = load_phases(path, kappa, gravity)
     phases, order = dict(named), [name for name, _ in named]
     last = order[-1]
     loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol,
@@ -818,6 +835,7 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
                       snap_step=0.5 * min(step_options.min_step, step_options.snap_step))
     probe = follow_path(problem, path, kappa, linear, newton_options=newton_options,
                         step_options=no_snap, stats=stats, w0=res.w, resume=(phase, lam),
+                        gravity=gravity,
                         progress=lambda f: report(0.9 + 0.1 * f), on_step=collect)
     steps += tuple(probe.steps)
     rejected += probe.rejected_steps
@@ -841,7 +859,7 @@ def _resume_fine(problem, cproblem, path, kappa, linear, newton_options, step_op
         # from there, snapping as it does
         rest = follow_path(problem, path, kappa, linear, newton_options=newton_options,
                            step_options=step_options, stats=stats, w0=probe.w,
-                           resume=(last, lam_end), progress=lambda f: report(0.9 + 0.1 * f),
+                           resume=(last, lam_end), gravity=gravity, progress=lambda f: report(0.9 + 0.1 * f),
                            on_step=collect)
         if not rest.converged:
             return None, f"{where}: the resumed fine path failed: {rest.reason}"

@@ -64,6 +64,7 @@ BAD = [
     (["solve", "--length", "1", "--path", "sideways"], "path"),
     (["solve", "--length", "1", "--solver", "magic"], "solver"),
     (["solve", "--length", "1", "--layers", "0"], "layers"),
+    (["solve", "--length", "1", "--gravity", "-1"], "gravity"),
     (["solve", "--length", "1", "--json", "/nonexistent/dir/out.json"], "--json"),
     (["solve", "--length", "1", "--vtu", "out.txt"], "--vtu"),
     (["solve", "--length", "1", "--png", "/nonexistent/x.png"], "--png"),
@@ -71,6 +72,16 @@ BAD = [
     (["frobnicate"], "invalid choice"),
     ([], "COMMAND"),
 ]
+
+
+def test_solve_without_gravity(tmp_path):
+    out = tmp_path / "out.json"
+    p = run("solve", "--length", "1", "--curvature", "0.5", "--gravity", "0", "--hmax", "0.15",
+            "--json", str(out), "--quiet")
+    assert p.returncode == 0, p.stderr
+    data = json.loads(out.read_text())
+    assert data["params"]["gravity"] == 0.0 and data["gravity_reached"] == 0.0
+    assert [s[0] for s in data["steps"]] == ["curvature"] * len(data["steps"])
 
 
 @pytest.mark.parametrize("args, name", BAD, ids=[" ".join(a) or "empty" for a, _ in BAD])

@@ -92,6 +92,7 @@ def test_failure_is_reported_not_returned_as_an_answer():
     (dict(path="sideways"), "path"), (dict(hmax=-1), "hmax"), (dict(hmax=1e-4), "hmax"),
     (dict(solver="magic"), "solver"), (dict(on_failure="ignore"), "on_failure"),
     (dict(quadrature_order=7), "quadrature_order"), (dict(layers=0), "layers"),
+    (dict(gravity=-0.5), "gravity"), (dict(gravity=11.0), "gravity"),
 ])
 def test_bad_arguments(kwargs, name):
     with pytest.raises(ValueError, match=name):
@@ -204,3 +205,21 @@ def test_timings_count_every_factorisation_and_solve():
     assert stats.factorizations == solver.n_factorizations
     assert stats.linear_solve_s >= solver.factor_time + solver.solve_time
     assert stats.linear_solve_s <= 1.5 * (solver.factor_time + solver.solve_time) + 0.05
+
+
+def test_without_gravity_both_paths_reach_one_state_and_small_loads_are_linear():
+    """``gravity=0``: the clamp's curvature alone, one phase on either path,
+    hence the same state (an invariant); a flat sheet without gravity stays
+    in its reference state; and in the small-load limit d is linear in the
+    load (doubling g doubles d to 1e-4, the quadratic term is O(g^2))."""
+    sheet = Sheet(length=1.5, curvature=0.5)
+    up = solve(sheet, path="curvature-first", hmax=0.15, gravity=0.0)
+    down = solve(sheet, path="gravity-first", hmax=0.15, gravity=0.0)
+    assert up.converged and up.stable and up.gravity == 0.0 and up.target_gravity == 0.0
+    assert [s[0] for s in up.steps] == ["curvature"] * len(up.steps)
+    assert abs(up.deflection - down.deflection) < 1e-12
+    assert up.to_record()["gravity"] == 0.0
+    flat = solve(Sheet(length=1.0), hmax=0.15, gravity=0.0)
+    assert flat.converged and flat.deflection == 0.0 and flat.steps == ()
+    d1, d2 = (solve(Sheet(length=1.0), hmax=0.15, gravity=g).deflection for g in (1e-3, 2e-3))
+    assert d1 > 0 and abs(d2 / d1 - 2.0) < 1e-4

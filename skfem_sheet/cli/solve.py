@@ -84,6 +84,9 @@ def add_solve_args(p, hmax=0.03) -> None:
                    help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX}, "
                         f"used where it is at least {MIN_COARSENING:g} times --hmax; closer, "
                         f"the path runs on --hmax)")
+    p.add_argument("--gravity", type=float, default=1.0,
+                   help="gravity as a fraction of the sheet's own weight, 0 to 10 "
+                        "(default 1; 0: no gravity)")
     p.add_argument("--json", default=None, help="write a JSON summary here")
     p.add_argument("--vtu", default=None, help="write the deformed sheet (VTU, ParaView) here")
     p.add_argument("--png", default=None, help="write a picture of the deformed sheet here")
@@ -177,7 +180,7 @@ def run(args) -> int:
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
                    refine=args.refine, solver=args.solver, symmetric=not args.full_sheet,
                    on_failure="return", progress=not args.quiet, series=series,
-                   start=_start(args), coarse_hmax=args.coarse_hmax)
+                   start=_start(args), coarse_hmax=args.coarse_hmax, gravity=args.gravity)
     if args.json:
         result.write(args.json)
     if args.vtu:

@@ -151,7 +151,8 @@ OPTIONS = {name: _SOLVE_DEFAULTS[name] for name, _, _ in Result.RECORD_FIELDS
 #: along the load path on its own mesh, ``start="path"``) is never reused for
 #: it.  A new option of ``solve`` must be added here with the default it has
 #: when it is added (a test checks that every option is here).
-_KEY_DEFAULTS = {"refine": 0, "symmetric": True, "start": "path", "coarse_hmax": 0.1}
+_KEY_DEFAULTS = {"refine": 0, "symmetric": True, "start": "path", "coarse_hmax": 0.1,
+                 "gravity": 1.0}
 
 #: Kinds of the outputs of a row (``Result.to_record`` minus the parameters).
 _OUTPUTS = {name: kind for name, kind, _ in Result.RECORD_FIELDS
