@@ -1,6 +1,9 @@
-"""Shared helpers of the issue-3 benchmarks (convergence, work-precision, solve speed).
+"""The shared parts of the benchmark scripts (``import common`` in a script of
+``benchmarks/``: Python puts the script's folder on the path).
 
-Three groups:
+- :func:`parser`: the one argument parser of every script (description and
+  ``--help`` text from the script's docstring), and :data:`RESULTS`, the folder of
+  the recorded outputs;
 
 - analysis of a mesh sequence: :func:`richardson` (three-point Richardson
   extrapolation, constant or varying refinement ratio), :func:`power_law_fit`
@@ -12,16 +15,20 @@ Three groups:
   process (so that its peak memory, read from ``/proc/self/status`` VmHWM inside
   that process, belongs to that solve alone) and returns a JSON-ready record;
 - :class:`RunStore`: a JSON file rewritten after every finished run, so an
-  interrupted benchmark keeps its finished runs and a rerun skips them.
+  interrupted benchmark keeps its finished runs and a rerun skips them;
+- sampled, journalled solves (:func:`random_sheets`, :func:`run_journalled`,
+  :func:`solve_or_crash`) of ``stress.py`` and ``snap_sample.py``; machine
+  information and formatting (:func:`machine_info`, :func:`fmt`).
 
 Only the public API is used: ``Sheet``, ``solve`` and the ``Result`` fields,
 ``skfem_sheet.linalg.available_solvers`` and the signature of ``solve`` (to
 detect options such as ``symmetric``).  Run this file as
-``python _common.py --child SPEC OUT`` to do one solve (that is what
+``python common.py --child SPEC OUT`` to do one solve (that is what
 :func:`run_isolated` does).
 """
 from __future__ import annotations
 
+import argparse
 import inspect
 import json
 import math
@@ -36,15 +43,10 @@ import traceback
 import numpy as np
 from tqdm.auto import tqdm
 
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    import skfem_sheet  # noqa: F401
-
-from skfem_sheet import Sheet, solve  # noqa: E402  (after the path fix)
-from skfem_sheet.continuation import PATHS  # noqa: E402
-from skfem_sheet.studies.runner import read_journal  # noqa: E402
+import skfem_sheet
+from skfem_sheet import Sheet, solve
+from skfem_sheet.continuation import PATHS
+from skfem_sheet.studies.runner import read_journal
 
 __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "local_orders",
            "nested_family",
@@ -53,9 +55,26 @@ __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "l
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
            "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
            "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
-           "run_journalled"]
+           "run_journalled", "parser", "peak_rss_bytes", "RESULTS"]
 
 GB = 1024.0 ** 3
+
+#: The recorded outputs, one folder per suite (accuracy, speed, robustness, acceptance).
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+
+
+def parser(doc, **kwargs):
+    """The argument parser of a benchmark script: its description is the first
+    paragraph of the script's docstring, and ``--help`` prints the whole docstring
+    after the options (how to run it, what it measures).
+
+    >>> parser("Title line.").description
+    'Title line.'
+    """
+    kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
+    paragraphs = (doc or "").strip().split("\n\n")
+    return argparse.ArgumentParser(description=paragraphs[0],
+                                   epilog="\n\n".join(paragraphs[1:]) or None, **kwargs)
 
 
 # ---------------------------------------------------------------------------
@@ -491,7 +510,7 @@ def spec_key(spec):
     return json.dumps(spec, sort_keys=True)
 
 
-def _peak_rss_bytes():
+def peak_rss_bytes():
     """High-water mark of this process's resident memory, in bytes."""
     try:
         with open("/proc/self/status") as f:
@@ -520,7 +539,7 @@ def _child(spec_json, out_path):
         for opt in ("quadrature_order", "symmetric", "refine"):
             if spec.get(opt) is not None:
                 kw[opt] = spec[opt]
-        rss0 = _peak_rss_bytes()
+        rss0 = peak_rss_bytes()
         t0 = time.perf_counter()
         r = solve(Sheet(**spec["sheet"]), **kw)
         t_call = time.perf_counter() - t0
@@ -530,7 +549,7 @@ def _child(spec_json, out_path):
         rec.update(status="crash", error=f"{type(err).__name__}: {err}",
                    traceback=traceback.format_exc(),
                    process_s=time.perf_counter() - t_start,
-                   peak_rss_gb=_peak_rss_bytes() / GB)
+                   peak_rss_gb=peak_rss_bytes() / GB)
     else:
         wall = float(r.wall_time_s)
         lin = float(r.linear_solve_s)
@@ -546,7 +565,7 @@ def _child(spec_json, out_path):
             assembly_share=float(r.assembly_s) / wall if wall > 0 else None,
             linear_share=lin / wall if wall > 0 else None,
             outside_linear_share=(wall - lin) / wall if wall > 0 else None,
-            peak_rss_gb=_peak_rss_bytes() / GB, rss_before_solve_gb=rss0 / GB,
+            peak_rss_gb=peak_rss_bytes() / GB, rss_before_solve_gb=rss0 / GB,
             kappa_reached=float(r.kappa), gravity_reached=float(r.gravity),
             volume_change=float(r.volume_change),
             stable=getattr(r, "stable", None), branch=getattr(r, "branch", None),
@@ -917,4 +936,4 @@ if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "--child":
         _child(sys.argv[2], sys.argv[3])
     else:
-        sys.exit("usage: python _common.py --child SPEC_JSON OUT_JSON (internal)")
+        sys.exit("usage: python common.py --child SPEC_JSON OUT_JSON (internal)")

@@ -1,7 +1,7 @@
-"""Issue 7: free-c ribbon model vs heavy elastica at zero clamp curvature, with the evidence.
+"""The free-c ribbon model against the heavy elastica at zero clamp curvature, with the evidence.
 
-Run:  python benchmarks/results/reduced_ribbon_vs_elastica.py [--with-3d]
-      (writes the tables to stdout; the recorded output is reduced_ribbon_vs_elastica.txt)
+Run:  python benchmarks/ribbon_vs_elastica.py [--with-3d]
+      (writes the tables to stdout; the recorded output is results/accuracy/ribbon_vs_elastica.txt)
 
 Sections: (1) the table ribbon / elastica - 1 for rectangle and triangle, split into the
 centre-of-mass drop -int sin phi and the tip term w(L,0) cos phi(L), and the same with
@@ -11,14 +11,14 @@ hmax 0.03 (one solve at a time, ~20-60 s each on 2 free cores).
 """
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
 from skfem_sheet.params import POISSON_RATIO, Sheet
 from skfem_sheet.reduced import elastica, ribbon, ribbon_energy_terms
 from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
 from skfem_sheet.reduced.ribbon import _deflection, _free_mask
+
+from harness import parser
 
 LENGTHS = (0.5, 0.6, 0.7, 0.8, 1.0, 1.4, 1.8)
 
@@ -98,7 +98,7 @@ def three_d():
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--with-3d", action="store_true", help="also run the 3D solver")
     args = ap.parse_args(argv)
     print(f"nu = {POISSON_RATIO}, h = 0.03, E/(rho g a) = 735\n")
