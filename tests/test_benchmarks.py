@@ -514,6 +514,6 @@ def test_every_cited_recorded_output_exists():
     missing = {(f, c) for f, c in _cited_results()
                if not os.path.exists(os.path.join(results, c))}
     assert missing - PENDING == set(), sorted(missing - PENDING)
-    for f, c in PENDING:        # each one has moved to a suite folder, not gone
+    for _, c in PENDING:        # each one has moved to a suite folder, not gone
         assert sum(os.path.exists(os.path.join(results, s, c)) for s in SUITES) == 1, c
     assert set(os.listdir(results)) == {"README.md", "NOTES.md", *SUITES}
