@@ -14,7 +14,6 @@
 Results are appended to the JSON after every case (a rerun skips finished
 cases), so an interrupted run loses at most the case in progress.
 """
-import argparse
 import json
 import os
 import sys
@@ -22,6 +21,8 @@ import time
 
 from skfem_sheet import Sheet
 from skfem_sheet.bistability import fold_lengths, s_curve
+
+from harness import parser
 
 CASES = [("rectangle", 1.0, 2.5), ("b/a = 0.5", 0.5, 2.5), ("triangle", 0.0, 2.5),
          ("rectangle", 1.0, 1.0)]
@@ -53,7 +54,7 @@ def _fmt(x):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--lengths", default="0.6:2.0", help="L/a range searched (short:long)")
     ap.add_argument("--json", default=None)

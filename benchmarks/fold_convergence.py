@@ -3,7 +3,7 @@
     python benchmarks/fold_convergence.py [--json out.json] [--txt out.txt]
         [--curvatures 2.5 5] [--hmax 0.1 0.06 0.045 0.03] [--refine 0.1] [--solver auto]
 
-(default record and table: ``benchmarks/results/fold_convergence.{json,txt}``;
+(default record and table: ``benchmarks/results/accuracy/fold_convergence.{json,txt}``;
 delete them to recompute from scratch).
 
 For every clamp curvature a/R and mesh size hmax, the two folds of the
@@ -35,21 +35,14 @@ finest meshes against the fold tolerance ``TOLERANCE``.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import resource
-import sys
 import time
 from functools import partial
 from unittest import mock
 
 import numpy as np
-
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from skfem_sheet import foldcurve
 from skfem_sheet.engine import natural
@@ -58,8 +51,11 @@ from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 
+import harness
+from harness import parser
+
 #: Where the recorded outputs live.
-RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+RESULTS = os.path.join(harness.RESULTS, "accuracy")
 #: Fold tolerance of the paper's fold lengths (the bisection's bracket, +-0.005).
 TOLERANCE = 0.005
 #: First standout search (length of the curvature-first solve) per curvature.
@@ -228,7 +224,7 @@ def table(doc) -> str:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--json", default=os.path.join(RESULTS, "fold_convergence.json"),
                     help="record (rewritten after every fold; reruns skip the folds already "
                          "there)")

@@ -34,7 +34,6 @@ it from the table without computing).
 Measured wall times depend on the load of the machine (the load average at
 the start is recorded).
 """
-import argparse
 import json
 import os
 import subprocess
@@ -52,7 +51,7 @@ from skfem_sheet.io import atomic_write, dumps_json
 from skfem_sheet.studies.foldmap import COARSE_HMAX, FINE_POINTS
 from skfem_sheet.studies.runner import journal_path, read_journal
 
-from _common import machine_info, run_isolated
+from harness import machine_info, parser, run_isolated
 
 
 def _fmt(x, spec="7.4f"):
@@ -180,7 +179,7 @@ def main(argv=None):
                        spec["fine_points"])
         atomic_write(argv[2], dumps_json(r))
         return
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--curvatures", default="2.5,5")
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--compare", type=float, default=None, metavar="A_R",

@@ -28,14 +28,13 @@
 
 superlu is left out below hmax 0.05 unless named in ``--backends``.
 ``--full-solve`` also times complete solves ``solve(..., solver=name)`` per
-back-end (fresh process each, via ``_common.run_isolated``).  Timings are only
+back-end (fresh process each, via ``harness.run_isolated``).  Timings are only
 meaningful on an otherwise idle machine; a warning is printed otherwise.
 Exit code 1 if a back-end failed to reach the required residual on some
 system (pyamg: its ``rtol``; direct solvers: 1e-6).
 """
 from __future__ import annotations
 
-import argparse
 import importlib
 import json
 import os
@@ -47,12 +46,13 @@ import time
 
 import numpy as np
 
-from _common import (
+from harness import (
     GB,
-    _peak_rss_bytes,
     available_backends,
     fmt,
     machine_info,
+    parser,
+    peak_rss_bytes,
     run_isolated,
     warn_if_busy,
 )
@@ -183,7 +183,7 @@ def _replay(spec, sysdir, out):
     if hasattr(solver, "attach"):
         solver.attach(problem)
     rows = []
-    rss0 = _peak_rss_bytes()
+    rss0 = peak_rss_bytes()
     ok = True
     for fn in meta["files"]:
         d = np.load(os.path.join(sysdir, fn))
@@ -214,7 +214,7 @@ def _replay(spec, sysdir, out):
                 ok = False
         rows.append(row)
     rec = dict(backend=name, path=rs["path"], n=n, systems=rows, ok=ok,
-               peak_rss_gb=_peak_rss_bytes() / GB, rss_before_gb=rss0 / GB,
+               peak_rss_gb=peak_rss_bytes() / GB, rss_before_gb=rss0 / GB,
                options=spec.get("options") or {})
     for attr in ("n_setups", "n_refreshes", "setup_time", "krylov_time", "rtol"):
         if hasattr(solver, attr):
@@ -259,8 +259,7 @@ def _summary(rec):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = parser(__doc__)
     ap.add_argument("--hmax", type=float, default=0.03)
     ap.add_argument("--length", type=float, default=1.3)
     ap.add_argument("--tip-width", type=float, default=1.0)

@@ -1,8 +1,8 @@
 """Method of manufactured solutions for the sheet's discretisation (issue 13, item 1).
 
     python benchmarks/manufactured.py [--base-hmax 0.25] [--refinements 2]
-        [--json benchmarks/results/manufactured.json]
-        [--txt benchmarks/results/manufactured.txt] [--png benchmarks/results/manufactured.png]
+        [--json benchmarks/results/accuracy/manufactured.json]
+        [--txt benchmarks/results/accuracy/manufactured.txt] [--png benchmarks/results/accuracy/manufactured.png]
 
 The package's own discrete problem (Taylor-Hood P2-P1 tetrahedra, its residual,
 tangent, gravity load and clamp) is solved with extra data that make smooth
@@ -59,7 +59,6 @@ All use of the package's internals is in :class:`PackageAdapter` below.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -67,11 +66,6 @@ import time
 
 import numpy as np
 import scipy.sparse.linalg as spla
-
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing: use the repository next door
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import skfem
 import sympy
 from skfem import Basis, FacetBasis
@@ -82,8 +76,10 @@ from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 from skfem_sheet.problem import SheetProblem
 
+from harness import parser
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+RESULTS = os.path.join(HERE, "results", "accuracy")
 
 #: The case: a thick rectangle, moderate modulus, curved clamp, full gravity.
 CASE = dict(length=1.0, tip_width=1.0, curvature=2.5, thickness=0.2, modulus=30.0)
@@ -441,7 +437,7 @@ def plot(res, png):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--base-hmax", type=float, default=0.25,
                     help="hmax of the base mesh (default 0.25)")
     ap.add_argument("--refinements", type=int, default=2, help="refine = 0 .. K (default 2)")

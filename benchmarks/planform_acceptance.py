@@ -1,11 +1,11 @@
 """Acceptance numbers of issue 14 (any planform), at coarse meshes.
 
-Run from the repository root: ``PYTHONPATH=. python benchmarks/planform_acceptance.py [part ...]``
+Run: ``python benchmarks/planform_acceptance.py [part ...]``
 with parts ``sampled``, ``flare``, ``elastica``, ``bites`` (default: all).  Each part
-writes ``benchmarks/results/planform_<part>.json`` (one record per solve, the
+writes ``benchmarks/results/acceptance/planform_<part>.json`` (one record per solve, the
 table rewritten after every solve) and its table to ``planform_<part>.txt``
 (``--report`` rewrites the tables from the JSON without solving).  The
-bitten-triangle part also saves pictures under ``benchmarks/results/``, the
+bitten-triangle part also saves pictures under ``benchmarks/results/acceptance/``, the
 part ``gallery`` the figure ``docs/gallery/planform_bites.png``.
 
 - sampled: a trapezoid given as sampled points (3 samples, PCHIP) against the
@@ -18,7 +18,7 @@ part ``gallery`` the figure ``docs/gallery/planform_bites.png``.
   hmax 0.06 for b/a = 1.5 and 1.
 - leaf: a pointed leaf (spline outline), a/R = 0 and 2.5, both paths at hmax 0.1
   and 0.06, with the heavy elastica and the ribbon model.
-- bites (and bites_h0.06): the triangle at L/a = 1.3, a/R = 2.5 with no, one and
+- bites (and bites_h0.06, bites_h0.03): the triangle at L/a = 1.3, a/R = 2.5 with no, one and
   two bites (radius 0.25 each), and the trapezoids cut straight where each bite
   leaves the axis, both load paths at hmax 0.1 (0.06), with the reduced models.
 """
@@ -42,8 +42,10 @@ from skfem_sheet.reduced import (
 )
 from skfem_sheet.solve import solve
 
+from harness import parser
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+RESULTS = os.path.join(HERE, "results", "acceptance")
 PATHS = ("curvature-first", "gravity-first")
 
 
@@ -246,14 +248,24 @@ def gallery():
 PARTS = {"sampled": (sampled, report_sampled), "flare": (flare, report_flare),
          "flare_h0.06": (lambda: flare(0.06), report_flare),
          "elastica": (elastica_part, report_elastica), "bites": (bites, report_bites),
-         "bites_h0.06": (lambda: bites(0.06), report_bites), "leaf": (leaf, report_leaf)}
+         "bites_h0.06": (lambda: bites(0.06), report_bites),
+         "bites_h0.03": (lambda: bites(0.03), report_bites), "leaf": (leaf, report_leaf)}
 
 
-def main(argv):
+def main(argv=None):
     """``[--report] [part ...]``: run (or, with --report, re-read) the parts and
-    write their tables to ``benchmarks/results/planform_<part>.txt``."""
-    report_only = "--report" in argv
-    parts = [a for a in argv if a != "--report"] or [*PARTS, "gallery"]
+    write their tables to ``benchmarks/results/acceptance/planform_<part>.txt``."""
+    ap = parser(__doc__)
+    ap.add_argument("parts", nargs="*", metavar="part",
+                    help=f"default: all but bites_h0.03 ({', '.join([*PARTS, 'gallery'])})")
+    ap.add_argument("--report", action="store_true",
+                    help="rewrite the tables from the recorded JSON, without solving")
+    args = ap.parse_args(argv)
+    unknown = [p for p in args.parts if p not in (*PARTS, "gallery")]
+    if unknown:
+        ap.error(f"unknown part {unknown[0]!r}: choose from {', '.join([*PARTS, 'gallery'])}")
+    report_only = args.report
+    parts = args.parts or [p for p in (*PARTS, "gallery") if p != "bites_h0.03"]
     for part in parts:
         if part == "gallery":
             lines = gallery()
@@ -271,4 +283,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main())

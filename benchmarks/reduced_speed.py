@@ -8,7 +8,6 @@ continuation directions (target <= 60 s on 2 cores), plus the other models.
 """
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import time
@@ -23,6 +22,8 @@ from skfem_sheet.reduced import (
     ribbon,
     ribbon_map,
 )
+
+from harness import parser
 
 
 def _timeit(fn, repeat=5):
@@ -48,7 +49,7 @@ def continuation_step_time(curvature=2.5, tip_width=1.0, n=40):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--quick", action="store_true", help="20 x 20 map instead of 50 x 50")
     args = ap.parse_args(argv)

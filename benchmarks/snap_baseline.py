@@ -4,17 +4,20 @@ with reproducible arithmetic (one thread, ``MKL_CBWR=COMPATIBLE``).
 
 Usage::
 
-    python benchmarks/snap_baseline.py OUT.jsonl            # run the set
+    python benchmarks/snap_baseline.py OUT.jsonl [CHECKOUT]  # run the set (on that checkout)
     python benchmarks/snap_baseline.py OUT.jsonl --options '{"newton": {"linearization": "mip"}}'
     python benchmarks/snap_baseline.py --compare A.jsonl B.jsonl
 
-``--compare`` prints both runs side by side, the relative change of d, and the
-totals of Newton iterations and factorisations.
+``--compare`` prints both runs side by side, the relative change of d, the
+totals of Newton iterations and factorisations, and how many cases are equal bit
+for bit (exit status 1 if not all).
 """
 import json
 import os
 import subprocess
 import sys
+
+from harness import parser
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -103,16 +106,32 @@ def compare(a, b):
             tot[i] += x[k]
             tot[2 + i] += y[k]
     print(f"totals: Newton {tot[0]} -> {tot[2]}, factorisations {tot[1]} -> {tot[3]}")
+    same = [name for name in A if name in B and "d" in A[name] and "d" in B[name]
+            and A[name]["d"] == B[name]["d"] and A[name]["stable"] == B[name]["stable"]]
+    print(f"bit for bit (d and stable): {len(same)} of {len(A)} cases")
+    return 0 if len(same) == len(A) else 1
+
+
+def main(argv=None):
+    ap = parser(__doc__)
+    ap.add_argument("out", nargs="?", help="the JSON-lines file to write")
+    ap.add_argument("root", nargs="?", default=ROOT,
+                    help="the checkout whose skfem_sheet solves the cases (default: this one)")
+    ap.add_argument("--options", type=json.loads, default=None,
+                    help='JSON of NewtonOptions / StepOptions, e.g. \'{"newton": {...}}\'')
+    ap.add_argument("--compare", nargs=2, metavar=("A.jsonl", "B.jsonl"),
+                    help="compare two runs instead (exit 1 unless bit for bit)")
+    args = ap.parse_args(argv)
+    if args.compare:
+        return compare(*args.compare)
+    if args.out is None:
+        ap.error("give OUT.jsonl (or --compare A.jsonl B.jsonl)")
+    run(args.out, args.root, args.options)
+    return 0
 
 
 if __name__ == "__main__":
-    if sys.argv[1] == "--compare":
-        compare(sys.argv[2], sys.argv[3])
-    else:
-        args = sys.argv[2:]
-        options = None
-        if "--options" in args:
-            i = args.index("--options")
-            options = json.loads(args[i + 1])
-            del args[i:i + 2]
-        run(sys.argv[1], args[0] if args else ROOT, options)
+    sys.exit(main())
+
+
+

@@ -22,20 +22,15 @@ resumes; ``--shard k:n`` lets several processes share one file, and a last run
 without it prints the table).  Exit status 1 if a solve crashed or a
 converged result is not verified stable.
 """
-import argparse
-import os
 import sys
 
 import numpy as np
 
-_HERE = os.path.dirname(os.path.abspath(__file__))
-if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
-    sys.path.insert(0, _HERE)
-
-from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
+from harness import (
     add_shard_option,
     both_paths,
     parse_shard,
+    parser,
     random_sheets,
     run_journalled,
     solve_key,
@@ -103,7 +98,7 @@ def report(recs):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--n", type=int, default=50)
     ap.add_argument("--seed", type=int, default=17)
     ap.add_argument("--hmax", type=float, default=0.1)

@@ -8,7 +8,6 @@ both load paths.  Reported per solve: d/a, Newton iterations, load steps,
 wall time, linear-solver and assembly time, relative volume change and the
 largest asymmetry of U_z along the free edge.
 """
-import argparse
 import json
 import sys
 
@@ -17,6 +16,8 @@ import numpy as np
 from skfem_sheet import Sheet, solve
 from skfem_sheet.analyses.observables import midline_heights
 from skfem_sheet.reduced import elastica
+
+from harness import parser
 
 CASES = [
     ("flat rectangle", Sheet(1.0), "curvature-first"),
@@ -28,7 +29,7 @@ CASES = [
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--hmax", type=float, default=0.03)
     ap.add_argument("--solver", default="auto")
     ap.add_argument("--json", default=None)

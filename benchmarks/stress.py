@@ -19,18 +19,13 @@ Results are appended to a JSON-lines file as they finish, so an interrupted
 run resumes where it stopped (finished points are skipped).  A table and a
 summary line are printed at the end.
 """
-import argparse
-import os
 import sys
 
-_HERE = os.path.dirname(os.path.abspath(__file__))
-if _HERE not in sys.path:  # _common, beside this file (also when loaded by path)
-    sys.path.insert(0, _HERE)
-
-from _common import (  # noqa: E402  (after the path fix; _common finds skfem_sheet)
+from harness import (
     add_shard_option,
     both_paths,
     parse_shard,
+    parser,
     random_sheets,
     read_jsonl,
     run_journalled,
@@ -73,7 +68,7 @@ def run_point(p, path, hmax):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--hmax", type=float, default=0.1)

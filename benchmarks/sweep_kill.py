@@ -20,7 +20,6 @@ Runs ``python -m skfem_sheet sweep`` on a grid of 24 coarse sheets (L/a 0.3, 0.4
 Prints the evidence and exits with 1 if a check fails.  Run it with nothing else
 running if you want the wall times to mean anything.
 """
-import argparse
 import json
 import os
 import signal
@@ -28,6 +27,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+from harness import parser
 
 GRID = ["--lengths", "0.3:0.5:0.1", "--tip-widths", "1,0", "--curvatures", "0,2.5",
         "--paths", "both"]
@@ -90,13 +91,13 @@ def wait_lines(journal, n, proc, timeout=900):
     return False
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None):
+    ap = parser(__doc__)
     ap.add_argument("--out", default=None, help="folder for the tables (default: a temp dir)")
     ap.add_argument("--hmax", type=float, default=0.15)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--dask", action="store_true", help="also compare with a LocalCluster run")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     out = args.out or tempfile.mkdtemp(prefix="sweep_kill_")
     os.makedirs(out, exist_ok=True)
     table = os.path.join(out, "pool.csv")

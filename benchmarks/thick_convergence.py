@@ -1,8 +1,8 @@
 """Mesh convergence of the tip deflection on a thick sheet in the asymptotic range (issue 13, item 2).
 
     python benchmarks/thick_convergence.py [--families 0.48:2:2,0.3:2:2,0.24:2:2]
-        [--json benchmarks/results/thick_L1_aR2.5_h0.1.json]
-        [--txt benchmarks/results/thick_L1_aR2.5_h0.1.txt] [--timeout 900] [--threads 1]
+        [--json benchmarks/results/accuracy/thick_L1_aR2.5_h0.1.json]
+        [--txt benchmarks/results/accuracy/thick_L1_aR2.5_h0.1.txt] [--timeout 900] [--threads 1]
         [--force] [--reuse-stale] [--dry-run]
 
 Case: rectangle, L/a = 1, a/R = 2.5, h/a = 0.1 (E/(rho g a) = 735), curvature-first,
@@ -26,11 +26,10 @@ constant per family); the target is an observed order >= 1.8 on every family.
 Each solve runs in a fresh process; the JSON file is rewritten after every
 solve and a rerun skips finished solves (``--force`` redoes them).
 """
-import argparse
 import os
 import sys
 
-from _common import (
+from harness import (
     RunStore,
     analyse_sequence,
     estimate_unknowns,
@@ -38,11 +37,12 @@ from _common import (
     local_orders,
     machine_info,
     nested_family,
+    parser,
     run_isolated,
 )
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+RESULTS = os.path.join(HERE, "results", "accuracy")
 STEM = "thick_L1_aR2.5_h0.1"
 SHEET = dict(length=1.0, tip_width=1.0, curvature=2.5, thickness=0.1)
 PATH = "curvature-first"
@@ -185,7 +185,7 @@ def table(families, analyses, joint=None):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--families", default=DEFAULT_FAMILIES,
                     help=f"nested families base_hmax:base_layers:K, ... (default {DEFAULT_FAMILIES})")
     ap.add_argument("--json", default=os.path.join(RESULTS, STEM + ".json"))

@@ -21,13 +21,14 @@ regenerating the report is caught (``tests/test_verification_report.py``).
 """
 from __future__ import annotations
 
-import argparse
 import glob
 import json
 import os
 import re
 import sys
 from dataclasses import dataclass
+
+from harness import parser
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -80,7 +81,7 @@ def _missing(section, name, tolerance, source, command):
 # ----------------------------------------------------------------------------
 def manufactured_checks(results):
     section = "Manufactured solution (Taylor-Hood P2-P1 order)"
-    src, cmd = "manufactured.json", "python benchmarks/manufactured.py"
+    src, cmd = "accuracy/manufactured.json", "python benchmarks/manufactured.py"
     labels = {"u_l2": "rate of the U error in L2", "u_h1": "rate of the U error in H1",
               "p_l2": "rate of the p error in L2",
               "tip": "rate of the tip U_z error at (L, 0, 0)"}
@@ -105,7 +106,7 @@ def manufactured_checks(results):
 
 def thick_checks(results):
     section = "Tip deflection on a thick sheet in the asymptotic range (h/a 0.1, a/R 2.5, L/a 1)"
-    src, cmd = "thick_L1_aR2.5_h0.1.json", "python benchmarks/thick_convergence.py"
+    src, cmd = "accuracy/thick_L1_aR2.5_h0.1.json", "python benchmarks/thick_convergence.py"
     doc = _load_json(results, src)
     if doc is None or "families" not in doc:
         return [_missing(section, "observed order of d, nested family 1", ">= 1.8", src, cmd)]
@@ -133,11 +134,12 @@ def thick_checks(results):
 
 def paper_case_checks(results):
     section = "Tip deflection on the paper's case (L/a 1.8, a/R 5, h/a 0.03)"
-    src = "convergence_fit_L1.8_aR5.json"
-    cmd = ("cd benchmarks && python convergence_fit.py results/convergence_nested_L1.8_aR5.json "
-           "results/convergence_nested_base0.14_L1.8_aR5.json "
-           "results/convergence_nested_base0.12_L1.8_aR5.json --max-h 0.12 "
-           "--json results/convergence_fit_L1.8_aR5.json")
+    src = "accuracy/convergence_fit_L1.8_aR5.json"
+    r = "benchmarks/results/accuracy/"
+    cmd = (f"python benchmarks/convergence.py fit {r}convergence_nested_L1.8_aR5.json "
+           f"{r}convergence_nested_base0.14_L1.8_aR5.json "
+           f"{r}convergence_nested_base0.12_L1.8_aR5.json --max-h 0.12 "
+           f"--json {r}convergence_fit_L1.8_aR5.json")
     doc = _load_json(results, src)
     if doc is None:
         return [_missing(section, "observed order of d (three nested families)", ">= 1.8",
@@ -165,8 +167,8 @@ _S_CONV = re.compile(r"^\s*b=(\d) L=([\d.]+): (.*)$")
 
 def reduced_checks(results):
     section = "Reduced-model limits (ribbon and heavy elastica)"
-    src = "reduced_ribbon_vs_elastica.txt"
-    cmd = "python benchmarks/results/reduced_ribbon_vs_elastica.py --with-3d"
+    src = "accuracy/ribbon_vs_elastica.txt"
+    cmd = "python benchmarks/ribbon_vs_elastica.py --with-3d"
     text = _read_text(results, src)
     if text is None:
         return [_missing(section, "ribbon with nu = 0 equals the heavy elastica", "-", src, cmd)]
@@ -220,7 +222,7 @@ _FLAT = re.compile(r"flat rectangle: d = ([\d.]+), heavy elastica \(plate modulu
 
 def solver_checks(results):
     section = "3D solver: analytic limit, branches and invariants (hmax 0.03)"
-    src, cmd = "solver_acceptance_hmax0.03.txt", "python benchmarks/solver_acceptance.py"
+    src, cmd = "acceptance/solver_acceptance_hmax0.03.txt", "python benchmarks/solver_acceptance.py"
     text = _read_text(results, src)
     if text is None:
         return [_missing(section, "flat rectangle against the heavy elastica", "-", src, cmd)]
@@ -285,8 +287,8 @@ def _fold_cases(doc):
 def fold_checks(results):
     section = "Fold lengths (pop-up L0*, standout L1*) under mesh refinement"
     cmd = "python benchmarks/fold_convergence.py"
-    files = sorted(os.path.basename(p) for p in glob.glob(os.path.join(results,
-                                                                       "fold_convergence*.json")))
+    files = sorted(os.path.relpath(p, results) for p in glob.glob(
+        os.path.join(results, "accuracy", "fold_convergence*.json")))
     out = []
     for src in files:
         doc = _load_json(results, src)
@@ -350,7 +352,7 @@ def render(checks):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--results", default=RESULTS, help="folder of the recorded outputs")
     ap.add_argument("--output", default=OUTPUT, help="the report (default docs/verification.md)")
     ap.add_argument("--check", action="store_true",
@@ -368,11 +370,8 @@ def main(argv=None):
             return 1
         print(f"{args.output} is up to date")
         return 0
-    try:
-        from skfem_sheet.io import atomic_write
-    except ImportError:  # run from a checkout without installing: use the repository next door
-        sys.path.insert(0, ROOT)
-        from skfem_sheet.io import atomic_write
+    from skfem_sheet.io import atomic_write
+
     atomic_write(args.output, text)
     print(f"wrote {args.output}")
     return 0

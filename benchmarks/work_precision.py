@@ -29,13 +29,12 @@ The PNG plots error against wall time, one line per choice, points labelled
 with hmax.  superlu is skipped below hmax 0.05 unless ``--all`` (it takes many
 minutes there); meshes above ``--max-dofs`` unknowns are skipped.
 """
-import argparse
 import json
 import sys
 
 from tqdm.auto import tqdm
 
-from _common import (
+from harness import (
     add_run_options,
     available_backends,
     estimate_unknowns,
@@ -43,6 +42,7 @@ from _common import (
     interrupted,
     machine_info,
     open_store,
+    parser,
     run_isolated,
     solve_supports,
     warn_if_busy,
@@ -128,7 +128,7 @@ def plot(png, runs, ref, ref_label, case_label):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--length", type=float, default=1.8, help="L/a (default 1.8)")
     ap.add_argument("--tip-width", type=float, default=1.0, help="b/a (default 1)")
     ap.add_argument("--curvature", type=float, default=5.0, help="a/R (default 5)")

@@ -64,9 +64,15 @@ class SheetMesh:
     ----------
     mesh : skfem.MeshTet
         The tetrahedra (positively oriented).
-    length, tip_width, thickness, hmax : float
-        The geometry it was built for and the target element size of the base
-        triangulation (the edges are about ``hmax / 2**refine`` long).
+    length : float
+        The length it was built for (L/a).
+    tip_width : float
+        The tip width it was built for (b/a).
+    thickness : float
+        The thickness it was built for (h/a).
+    hmax : float
+        The target element size of the base triangulation (the edges are about
+        ``hmax / 2**refine`` long).
     layers : int
         Number of element layers through the thickness (all of them: the base
         layers times ``2**refine``).

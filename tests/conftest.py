@@ -1,10 +1,19 @@
 import os
+import sys
 
 import matplotlib
 import pytest
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# The benchmark scripts import their helper module ``harness`` from their own folder
+# (Python puts a script's folder on the path); tests that load a script by its file
+# path need that folder on the path too.
+BENCHMARKS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                          "benchmarks")
+if BENCHMARKS not in sys.path:
+    sys.path.append(BENCHMARKS)
 
 
 @pytest.fixture(scope="session")

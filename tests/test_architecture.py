@@ -19,21 +19,19 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "skfem_sheet"
 
-#: The target layout, lowest first: module path (a file, or a folder ending in
-#: "/" for every module in it) -> layer.  A new module needs a line here.
+#: The layout, lowest first: module path (a file, or a folder ending in "/" for
+#: every module in it) -> layer.  A new module needs a line here and in the table
+#: of docs/architecture.md (test_the_documented_table_is_this_one checks both agree).
 LAYERS = {
     "version.py": 0, "params.py": 0, "mesh.py": 0, "io.py": 0,   # parameters, mesh, files
-    "discretisation.py": 1,   # TaylorHoodSpace: bases, dof layout, split/join, dof sets
-    "kernels.py": 2,          # material kernels (pure numpy)
-    "assembly.py": 3,         # Assembler: sparsity pattern, buffers, threads
-    "problem.py": 4,          # SheetProblem: residual, tangent, energy, with_length
-    "linalg.py": 5,           # linear solvers, given a SaddlePointLayout
-    "engine/protocol.py": 6,  # the engine's problem protocol and counters (generic)
-    "engine/corrector.py": 6,  # the one Newton loop (correct), bordered solves
-    "engine/transient.py": 6,  # the one pseudo-transient iteration
-    "newton.py": 6,           # Newton and pseudo-transient on the sheet (the two above), Stats, timed
-    "analyses/": 7,           # stability, observables, transfer between meshes
-    "engine/": 8,             # the continuation engine (drivers: fold, branch, curves, load paths)
+    "engine/": 1,             # the continuation engine: generic, imports only params
+    "discretisation.py": 2,   # TaylorHoodSpace: bases, dof layout, split/join, dof sets
+    "kernels.py": 3,          # material kernels (pure numpy)
+    "assembly.py": 4,         # Assembler: sparsity pattern, buffers, threads
+    "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
+    "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
+    "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
+    "analyses/": 8,           # stability, observables, transfer between meshes
     "reduced/": 9,            # reduced-order models
     "continuation.py": 10,    # load paths (follow_path)
     "solve.py": 11,           # solve, Result, Result.to_record
@@ -269,6 +267,25 @@ def test_argparse_only_in_cli():
            if not rel.startswith("cli/")
            for line, target, _, what in imports(src, rel) if target == "argparse"]
     assert not bad, "argparse outside skfem_sheet/cli/:\n" + "\n".join(bad)
+
+
+def _documented_layers():
+    """The layer table of docs/architecture.md: ``{module path: layer}``."""
+    text = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    tables = [block for block in text.split("\n\n") if block.startswith("| layer | module")]
+    assert len(tables) == 1, f"docs/architecture.md has {len(tables)} layer tables, not one"
+    layers = {}
+    for row in tables[0].splitlines()[2:]:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        for name in cells[1].replace("(", ",").replace(")", ",").split(","):
+            name = name.replace("and", "").strip().strip("`").strip()
+            if name.endswith(".py") or name.endswith("/"):
+                layers[name] = int(cells[0])
+    return layers
+
+
+def test_the_documented_table_is_this_one():
+    assert _documented_layers() == LAYERS
 
 
 # -- the checker itself -------------------------------------------------------------------

@@ -142,6 +142,31 @@ def test_version_flag():
     assert p.stdout.strip() == f"skfem-sheet {__version__}"
 
 
+def test_version_flag_imports_no_numerics():
+    """``--version`` answers without loading numpy, scipy or the solver (it took 2.8 s)."""
+    from skfem_sheet.version import __version__
+
+    code = ("import sys, runpy; sys.argv = ['skfem_sheet', '--version']\n"
+            "try:\n    runpy.run_module('skfem_sheet', run_name='__main__')\n"
+            "except SystemExit as e:\n    assert e.code == 0, e.code\n"
+            "print(sorted(m for m in ('numpy', 'scipy', 'skfem', 'skfem_sheet.solve')"
+            " if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines() == [f"skfem-sheet {__version__}", "[]"]
+
+
+def test_package_names_resolve_lazily_to_the_api():
+    """``skfem_sheet.solve`` is the function even after its submodule is imported."""
+    code = ("import skfem_sheet.studies.sweep, skfem_sheet\n"
+            "from skfem_sheet import Result, Sheet, solve\n"
+            "print(callable(solve), solve.__module__, skfem_sheet.solve is solve,"
+            " Result.__name__, Sheet.__name__)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["True", "skfem_sheet.solve", "True", "Result", "Sheet"]
+
+
 def test_full_sheet_solves_the_whole_sheet(tmp_path):
     """--full-sheet is symmetric=False: about twice the unknowns, the same (symmetric)
     equilibrium as the half solve."""

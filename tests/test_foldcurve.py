@@ -227,7 +227,7 @@ def test_two_routes_around_the_cusp_reach_the_same_popup_fold():
     stretched x1.26, whose L0* (1.2112) differs from the (L, b) route's on the
     mesh made at 1.296 (1.2062) by the stretch's discretisation error
     (measured, hmax 0.1: L0* 1.2111 on the mesh made at 0.95, 1.2063 at 1.2062,
-    1.2062 at 1.2825; benchmarks/results/fold_curve_remesh_hmax0.1.txt).
+    1.2062 at 1.2825; benchmarks/results/robustness/fold_curve_remesh_hmax0.1.txt).
     Measured on the mesh made at 1.05: L0* 1.20845406656 by both routes."""
     from skfem_sheet.foldcurve import trace_curvature_fold_curve
 
@@ -296,7 +296,7 @@ def test_remeshed_curve_agrees_with_the_curve_on_its_mesh():
 
     Not those of the trace on the default mesh (made at 1.296) to 0.005, as
     this test asked before: at hmax 0.2 the folds depend on where the mesh was
-    made, by more than that (benchmarks/results/fold_curve_remesh_hmax0.2.txt).
+    made, by more than that (benchmarks/results/robustness/fold_curve_remesh_hmax0.2.txt).
     Measured (a/R 2.5, b 1, hmax 0.2; same tetrahedra count 300 for meshes made
     at 1.2825 and 1.296, but other vertices): the trace on the mesh made at
     1.296 gives L0* 1.2183, L1* 1.3682, cusp b 0.616; on the mesh made at 1.2825

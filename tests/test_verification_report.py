@@ -44,29 +44,29 @@ def test_check_fails_when_a_recorded_output_changes(results_copy, tmp_path):
     out = tmp_path / "verification.md"
     assert report.main(["--results", str(results_copy), "--output", str(out)]) == 0
     assert report.main(["--results", str(results_copy), "--output", str(out), "--check"]) == 0
-    path = results_copy / "manufactured.json"
+    path = results_copy / "accuracy" / "manufactured.json"
     doc = json.loads(path.read_text())
     doc["rates"]["u_l2"] = 2.0          # below the P2 target: the check must turn to FAIL
     path.write_text(json.dumps(doc))
     assert report.main(["--results", str(results_copy), "--output", str(out), "--check"]) == 1
     failed = [c for c in report.collect(str(results_copy)) if c.status == report.FAIL]
-    assert [c.source for c in failed] == ["manufactured.json"]
+    assert [c.source for c in failed] == ["accuracy/manufactured.json"]
     assert "2.000" in failed[0].value
 
 
 def test_missing_outputs_are_reported_missing_not_passed(results_copy):
-    os.remove(results_copy / "thick_L1_aR2.5_h0.1.json")
-    os.remove(results_copy / "solver_acceptance_hmax0.03.txt")
+    os.remove(results_copy / "accuracy" / "thick_L1_aR2.5_h0.1.json")
+    os.remove(results_copy / "acceptance" / "solver_acceptance_hmax0.03.txt")
     checks = report.collect(str(results_copy))
     missing = {c.source for c in checks if c.status == report.MISSING}
-    assert {"thick_L1_aR2.5_h0.1.json", "solver_acceptance_hmax0.03.txt"} <= missing
+    assert {"accuracy/thick_L1_aR2.5_h0.1.json", "acceptance/solver_acceptance_hmax0.03.txt"} <= missing
 
 
 def test_fold_convergence_records_are_read_when_present(results_copy):
     doc = {"curvatures": [{"curvature": 2.5, "meshes": [
         {"hmax": 0.06, "popup_length": 0.812, "standout_length": 1.403},
         {"hmax": 0.045, "popup_length": 0.809, "standout_length": 1.395}]}]}
-    (results_copy / "fold_convergence.json").write_text(json.dumps(doc))
-    folds = [c for c in report.collect(str(results_copy)) if c.source == "fold_convergence.json"]
+    (results_copy / "accuracy" / "fold_convergence.json").write_text(json.dumps(doc))
+    folds = [c for c in report.collect(str(results_copy)) if c.source == "accuracy/fold_convergence.json"]
     assert [(c.value, c.status) for c in folds] == [("0.0030", report.PASS),
                                                      ("0.0080", report.FAIL)]

@@ -1,17 +1,17 @@
 """Command line: ``python -m skfem_sheet`` (also installed as ``skfem-sheet``).
 
-Commands
---------
-``solve``        one sheet along one load path; ``--json`` / ``--vtu`` / ``--png``
-``demo``         a default sheet (the paper's bistable rectangle, aloft branch):
-                 prints d, writes a PNG picture and a VTU file
-``rom``          reduced-order models (persistence length, cantilever, elastica,
-                 ribbon; see ``skfem_sheet.reduced``)
-``sweep``        a grid of sheets in parallel into one resumable table
-``bistability``  pop-up and standout lengths of one sheet (optional S-curve)
-``fold-curve``   the fold curve in (L, b/a) at one a/R, through its cusp
-``fold-map``     pop-up and standout lengths over a grid of (b/a, a/R)
-``figure``       one of the paper's figures
+Commands:
+
+- ``solve``: one sheet along one load path; ``--json`` / ``--vtu`` / ``--png``
+- ``demo``: a default sheet (the paper's bistable rectangle, aloft branch): prints d,
+  writes a PNG picture and a VTU file
+- ``rom``: reduced-order models (persistence length, cantilever, elastica, ribbon; see
+  ``skfem_sheet.reduced``)
+- ``sweep``: a grid of sheets in parallel into one resumable table
+- ``bistability``: pop-up and standout lengths of one sheet (optional S-curve)
+- ``fold-curve``: the fold curve in (L, b/a) at one a/R, through its cusp
+- ``fold-map``: pop-up and standout lengths over a grid of (b/a, a/R)
+- ``figure``: one of the paper's figures
 
 All argument parsing of the package lives here, one module per command; each
 exposes ``register(subparsers)``, which adds the command's parser and sets
@@ -27,14 +27,28 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..params import ParameterError
 from ..version import __version__
-from . import bistability, demo, figure, fold_curve, fold_map, rom, solve, sweep
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-#: The command modules, in the order of ``--help``.
-COMMANDS = (solve, demo, rom, sweep, bistability, fold_curve, fold_map, figure)
+#: The command modules, in the order of ``--help``.  They are imported when the
+#: parser is built (``cli.COMMANDS`` too), so that ``--version`` needs no numerics.
+COMMAND_NAMES = ("solve", "demo", "rom", "sweep", "bistability", "fold_curve", "fold_map",
+                 "figure")
+
+
+def _commands():
+    from . import bistability, demo, figure, fold_curve, fold_map, rom, solve, sweep
+
+    modules = dict(solve=solve, demo=demo, rom=rom, sweep=sweep, bistability=bistability,
+                   fold_curve=fold_curve, fold_map=fold_map, figure=figure)
+    return tuple(modules[name] for name in COMMAND_NAMES)
+
+
+def __getattr__(name):
+    if name == "COMMANDS":
+        return _commands()
+    raise AttributeError(f"module 'skfem_sheet.cli' has no attribute {name!r}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -48,13 +62,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"skfem-sheet {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for command in COMMANDS:
+    for command in _commands():
         command.register(sub)
     return parser
 
 
 def main(argv=None) -> int:
     """Entry point; returns the exit code."""
+    if list(sys.argv[1:] if argv is None else argv) == ["--version"]:
+        print(f"skfem-sheet {__version__}")   # without building the parser (no numerics)
+        return 0
+    from ..params import ParameterError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -32,8 +32,7 @@ METHODS = ("curves", "grid")
 def add_method_arguments(p, table_help="results .csv or .parquet (resumable)") -> None:
     """Add ``--method``, ``--table`` and ``--workers``: how and where the map is computed.
 
-    The options of the ``fold-map`` command that
-    ``benchmarks/bistability_map.py`` takes too (with its own ``table_help``).
+    The options of the ``fold-map`` command (``table_help`` says where the table goes).
     """
     p.add_argument("--method", choices=METHODS, default=METHODS[0],
                    help="curves: one fold curve per a/R (default); grid: point by point")
@@ -77,8 +76,7 @@ def print_curve_table(df) -> None:
     """Print a fold-curve table (:func:`~skfem_sheet.studies.foldmap.fold_curves`), a line a curve.
 
     a/R, the curve's plane, L1*, L0*, the cusp, the points, factorisations
-    per point, wall time, and the message of a curve not completed (also
-    ``benchmarks/bistability_map.py``'s table).
+    per point, wall time, and the message of a curve not completed.
     """
     print("  a/R   curve       L1*      L0*   cusp b/a  cusp a/R  cusp L   points  fact/pt"
           "  wall s")

@@ -82,7 +82,7 @@ L = 0.5 / 0.7 / 1.0, rising under refinement (+3.2 % at L = 0.5, hmax 0.02);
 triangle +37 % / +8.3 % at L = 0.5 / 1.0.  The ribbon model lies between the
 elastica and the 3D answer, so the elastica, not the ribbon model, is the
 poor reference for short or tapered sheets
-(``benchmarks/results/reduced_ribbon_vs_elastica.txt``).
+(``benchmarks/results/accuracy/ribbon_vs_elastica.txt``).
 
 Sign convention: phi < 0 when the sheet droops; the deflection
 
