@@ -46,7 +46,6 @@ hmax 0.1.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys

@@ -32,7 +32,7 @@ LAYERS = {
     "engine/corrector.py": 6,  # the one Newton loop (correct), bordered solves
     "engine/transient.py": 6,  # the one pseudo-transient iteration
     "newton.py": 6,           # Newton and pseudo-transient on the sheet (the two above), Stats, timed
-    "analyses/": 7,           # stability, observables, transfer between meshes
+    "analyses/": 7,           # stability, observables, transfer between meshes, mid-surface
     "engine/": 8,             # the continuation engine (drivers: fold, branch, curves, load paths)
     "reduced/": 9,            # reduced-order models
     "continuation.py": 10,    # load paths (follow_path)

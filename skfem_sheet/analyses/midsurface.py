@@ -49,7 +49,9 @@ Example
 >>> m = midsurface(r.problem, r.w, [0.0, 0.5], n_across=21)
 >>> m.w.shape
 (2, 21)
->>> bool(abs(m.E_tt[0]).max() < 1e-9)   # the clamp keeps the mid-line's length
+>>> import numpy as np
+>>> R, t = 2.0, m.t[0]                  # the clamp: v(0, t) = R sin(t/R) - t
+>>> bool(abs(m.v[0] - (R * np.sin(t / R) - t)).max() < 1e-4)
 True
 """
 from __future__ import annotations
@@ -59,11 +61,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..io import register_point_fields
 from ..params import POISSON_RATIO, ParameterError
 from .transfer import ExtrudedLocator
 
 __all__ = [
     "N_ACROSS",
+    "VTU_NAMES",
     "Midsurface",
     "SectionFrame",
     "clamp_layer_width",
@@ -71,6 +75,7 @@ __all__ = [
     "midsurface_at",
     "quadratic_fit",
     "section_frame",
+    "vtu_fields",
 ]
 
 #: Points across a cross-section (odd: Simpson's rule for the mean).
@@ -124,10 +129,14 @@ def _deformation(problem, w, s, t):
     G[:, :, 0] /= scale
     x = np.column_stack([s, ta, np.zeros_like(s)]) + u
     F = G + np.eye(3)
-    if mesh.half and np.any(mirror):
+    if mesh.half:
         M = np.array([1.0, -1.0, 1.0])
         x[mirror] *= M
         F[mirror] = M[None, :, None] * F[mirror] * M[None, None, :]
+        # on the symmetry plane the one-sided gradient of the half mesh has odd parts
+        # (d U_x/dy, ...) that the mirrored side cancels: take the mean of both sides
+        plane = t == 0
+        F[plane] = 0.5 * (F[plane] + M[None, :, None] * F[plane] * M[None, None, :])
     return x, F
 
 
@@ -363,8 +372,8 @@ def section_frame(problem, w, s, n_across: int = N_ACROSS) -> SectionFrame:
     --------
     >>> from skfem_sheet import Sheet, solve
     >>> r = solve(Sheet(length=1.0, curvature=0.5), hmax=0.2, gravity=0.0)
-    >>> f = section_frame(r.problem, r.w, [0.0])
-    >>> bool(abs(f.angle[0]) < 1e-9)   # clamped horizontally
+    >>> f = section_frame(r.problem, r.w, [0.0, 1.0])
+    >>> bool(abs(f.angle[0]) < 0.01 and f.angle[1] < 0)   # horizontal clamp; tip tilts down
     True
     """
     n_across = _check_across(n_across)
@@ -478,7 +487,8 @@ def midsurface_at(problem, w, points, n_sections: int = 401, n_across: int = N_A
                                                                for k in range(3)]),
                          tangent=np.column_stack([at(frame.tangent[:, k]) for k in range(3)]),
                          angle=at(frame.angle), strain=at(frame.strain))
-    u, v, ww, E_ss, E_st, E_tt = _components(local, t, x, F)
+    u, v, ww, E_ss, E_st, E_tt = (a[:, 0] for a in _components(local, t[:, None],
+                                                                  x[:, None], F[:, None]))
     nu = POISSON_RATIO
     return {"u": u, "v": v, "w": ww, "E_ss": E_ss, "E_st": E_st, "E_tt": E_tt,
             "T_ss_over_Y": E_ss + nu * E_tt, "T_tt_over_Y": E_tt + nu * E_ss}
@@ -507,7 +517,7 @@ def clamp_layer_width(sheet) -> float:
     --------
     >>> from skfem_sheet import Sheet
     >>> round(clamp_layer_width(Sheet(length=1.5, curvature=0.5, thickness=0.03175)), 3)
-    0.617
+    0.616
     """
     kappa = float(sheet.curvature)
     if kappa == 0:
@@ -515,3 +525,30 @@ def clamp_layer_width(sheet) -> float:
     nu = POISSON_RATIO
     ell = np.sqrt(float(sheet.thickness) / kappa) / (3.0 * (1.0 - nu**2)) ** 0.25
     return float(np.log(20.0) * ell)
+
+
+# -- fields of the result VTU -------------------------------------------------------------
+#: VTU names of the fields of :func:`midsurface_at`.
+VTU_NAMES = {"u": "midsurface_u", "v": "midsurface_v", "w": "midsurface_w", "E_ss": "E_ss",
+             "E_st": "E_st", "E_tt": "E_tt", "T_ss_over_Y": "T_ss_over_Y",
+             "T_tt_over_Y": "T_tt_over_Y"}
+
+
+def vtu_fields(problem, w, points):
+    """The mid-surface fields at the VTU's vertices ``points`` (3, n), by their plan position.
+
+    Registered with :func:`skfem_sheet.io.register_point_fields`, so that
+    ``Result.write("sheet.vtu")`` carries them (constant through the
+    thickness: every vertex shows the value of the mid-surface point above or
+    below it).  Nothing (``{}``) for a planform with bites.
+    """
+    sheet = problem.sheet
+    if getattr(sheet, "planform", None) is not None and sheet.planform.bites:
+        return {}
+    xy = np.asarray(points, dtype=float)[:2].T
+    plan, inverse = np.unique(np.round(xy, 12), axis=0, return_inverse=True)
+    fields = midsurface_at(problem, w, plan)
+    return {VTU_NAMES[k]: v[inverse.ravel()] for k, v in fields.items()}
+
+
+register_point_fields(vtu_fields)
