@@ -328,7 +328,11 @@ def render_sheet(result, filename, scale: str = "robust", window_size=(1200, 900
     grid = pv.UnstructuredGrid(cells, np.full(t.shape[1], pv.CellType.TETRA, dtype=np.uint8),
                                p.T + U)
     grid.cell_data["psi_over_mu"] = psi
-    surf = grid.extract_surface().cell_data_to_point_data()
+    try:
+        surf = grid.extract_surface(algorithm="dataset_surface")
+    except TypeError:  # PyVista before the algorithm keyword
+        surf = grid.extract_surface()
+    surf = surf.cell_data_to_point_data()
     values = np.asarray(surf.point_data["psi_over_mu"])
     norm, label = colour_scale(values, None, scale)
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
