@@ -243,7 +243,7 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     >>> r = solve(Sheet(length=0.6, curvature=1.0), hmax=0.2)
     >>> fig = plot_sheet(r)
     >>> fig.axes[-1].get_ylabel()
-    '$\\\\psi/\\\\mu$ (log scale, 1st percentile to max)'
+    '$\\\\psi/\\\\mu$ (linear, 0 to the 95th percentile)'
     """
     import matplotlib  # deferred: import cost (see the module docstring)
 

@@ -87,8 +87,8 @@ def draw_figS3(data, quality: str = "paper", sheet=None):
     >>> d = {k: np.outer(s, np.ones(5)) * 1e-3 for k, _ in FIELDS_S3}
     >>> d.update(s=s, t=t, hmax=0.1, dofs=10, layers=2, converged=True)
     >>> fig = draw_figS3(d, "quick")
-    >>> len(fig.axes)
-    10
+    >>> len(fig.axes)   # five maps, their colour bars, the notes
+    11
     """
     from matplotlib import colors  # deferred: import cost (see figures.style)
 
