@@ -15,8 +15,29 @@ from .params import ParameterError
 
 __all__ = ["write_result", "write_json", "check_writable", "whole_sheet_fields",
            "state_fields", "write_vtu", "Frame", "Series", "write_series", "read_pvd",
-           "check_directory",
+           "check_directory", "register_point_fields", "extra_point_fields",
            "atomic_write", "to_jsonable", "dumps_json"]
+
+#: Extra vertex fields of a solved state for the VTU of ``Result.write``:
+#: callables ``(problem, w, points) -> {name: ndarray (n,) or (n, 3)}`` at the
+#: whole sheet's reference vertices ``points`` (3, n), registered by higher
+#: layers (this layer imports none of them): :mod:`skfem_sheet.analyses.midsurface`
+#: adds the mid-surface fields u, v, w, E_ss, E_st, E_tt, T_ss/Y, T_tt/Y.
+_POINT_FIELDS = []
+
+
+def register_point_fields(provider) -> None:
+    """Add ``provider(problem, w, points) -> dict`` to the fields of every result VTU."""
+    if provider not in _POINT_FIELDS:
+        _POINT_FIELDS.append(provider)
+
+
+def extra_point_fields(problem, w, points) -> dict:
+    """The registered providers' fields at ``points`` (3, n), merged in registration order."""
+    out = {}
+    for provider in _POINT_FIELDS:
+        out.update(provider(problem, w, points))
+    return out
 
 
 def atomic_write(filename, data) -> None:
@@ -114,27 +135,33 @@ def write_result(result, filename) -> None:
 
     The VTU holds the reference mesh (linear tetrahedra) with point data
     ``displacement`` (apply "Warp By Vector" in ParaView to see the deformed
-    sheet) and ``pressure`` (paper convention), and cell data ``psi_over_mu``.
+    sheet) and ``pressure`` (paper convention), and cell data ``psi_over_mu``;
+    plus the fields of :func:`register_point_fields` (the mid-surface's
+    ``midsurface_u``, ``midsurface_v``, ``midsurface_w``, ``E_ss``, ``E_st``,
+    ``E_tt``, ``T_ss_over_Y``, ``T_tt_over_Y``, constant through the thickness).
     """
     path = check_writable("filename", filename, [".vtu", ".json"])
     if path.lower().endswith(".json"):
         write_json(result.summary(), path)
         return
-    write_vtu(path, *whole_sheet_fields(result))
+    fields = whole_sheet_fields(result)
+    write_vtu(path, *fields, point_data=extra_point_fields(result.problem, result.w, fields[0]))
 
 
-def write_vtu(filename, p, t, displacement, pressure, psi, field_data=None) -> None:
+def write_vtu(filename, p, t, displacement, pressure, psi, field_data=None,
+              point_data=None) -> None:
     """Write the fields of :func:`whole_sheet_fields` as one VTU file (atomically).
 
     ``field_data`` (name -> number) is stored as VTU field data (one value
-    each), e.g. the load of a step of a series.
+    each), e.g. the load of a step of a series; ``point_data`` (name ->
+    array over the vertices) adds vertex fields.
     """
     # deferred: meshio is only needed to write VTU files
     import meshio
 
     out = meshio.Mesh(
         points=p.T, cells=[("tetra", t.T.astype(np.int64))],
-        point_data={"displacement": displacement, "pressure": pressure},
+        point_data={"displacement": displacement, "pressure": pressure, **(point_data or {})},
         cell_data={"psi_over_mu": [psi]})
     path = os.fspath(filename)
     folder = os.path.dirname(os.path.abspath(path))

@@ -31,7 +31,7 @@ LAYERS = {
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
     "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
-    "analyses/": 8,           # stability, observables, transfer between meshes
+    "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface
     "reduced/": 9,            # reduced-order models
     "continuation.py": 10,    # load paths (follow_path)
     "solve.py": 11,           # solve, Result, Result.to_record

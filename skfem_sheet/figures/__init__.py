@@ -15,7 +15,18 @@ fig6  ribbon-model d/a over (L/a, b/a) at a/R = 2.5 (a) and 5 (b), its   ribbon 
       jumps, FE modes (markers) and the FE bistable region
 fig7  the bistable region in (L/a, b/a, a/R): standout L1* (upper) and    fold map
       pop-up L0* (lower) surfaces meeting on the critical curve
+figS1 convergence test: d/a against the largest mesh diameter, L/a 1.8,  nested FE meshes
+      a/R 5, with the projected exact value (+ MMS rates if recorded)
+figS3 in-plane strains E_ss, E_st, E_tt and stresses T_ss, T_tt of a     one FE solve
+      gravity-free rectangle, L/a 1.5, a/R 0.5, h/a 0.03175
+figS4 u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one FE solve
+      rectangle L/a 2, a/R 0.5, h/a 0.03175
 ====  ==================================================================  =====================
+
+The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
+solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and
+``figS4-<quality>/*.npz``; their mid-surface fields are
+:mod:`skfem_sheet.analyses.midsurface`'s.
 
 Data: every finite-element curve of fig2, fig4-fig7 comes from one fold-map
 table per quality, ``data_dir/foldmap-<quality>.csv``
@@ -81,12 +92,17 @@ from .figure4 import draw_fig4, fig4, fig4_points
 from .figure5 import draw_fig5, fig5, fig5_points, fig5_ribbon
 from .figure6 import draw_fig6, fig6, fig6_points, fig6_ribbon
 from .figure7 import bistable_region, draw_fig7, fig7, fig7_points
+from .figureS1 import draw_figS1, figS1, figS1_data, seed_from_benchmarks
+from .figureS3 import draw_figS3, figS3, figS3_data
+from .figureS4 import draw_figS4, figS4, figS4_data
 from .registry import FIGURES, make_figure
 from .style import COLUMN_WIDTH, DPI, FULL_WIDTH
 
 __all__ = ["FIGURES", "QUALITIES", "DEFAULT_DATA_DIR", "QUICK_GRID", "PAPER_GRID",
            "quality_settings", "make_figure", "map_grid_points", "fold_map_table",
-           "fig2", "fig3", "fig4", "fig5", "fig6", "fig7",
+           "fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "figS1", "figS3", "figS4",
+           "figS1_data", "figS3_data", "figS4_data", "draw_figS1", "draw_figS3", "draw_figS4",
+           "seed_from_benchmarks",
            "fig2_points", "fig4_points", "fig5_points", "fig6_points", "fig7_points",
            "draw_fig2", "draw_fig3", "draw_fig4", "draw_fig5", "draw_fig6", "draw_fig7",
            "fig3_sheets", "fig3_data", "fig5_ribbon", "fig6_ribbon", "row_branches",

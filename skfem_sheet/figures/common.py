@@ -50,6 +50,12 @@ _SETTINGS = {
         "fig7_curvatures": (1.0, 1.5, 2.0, 2.5, 3.5, 5.0),
         "ribbon_step": 0.05,                     # fig5's ribbon curves
         "marker_gap": 0.06,                      # least L/a between two markers of a curve
+        "hmax_supplement": 0.1,                  # figS3, figS4 (paper: hmax 0.03)
+        "supplement_grid": (61, 41),             # figS3's sections x points across
+        # figS1: nested families (base hmax, layers, refinements 0..k) and the default mesh
+        "figS1_families": ((0.24, 2, 1), (0.2, 2, 1), (0.16, 2, 1)),
+        "figS1_fit_max_h": 0.24,
+        "figS1_fit_powers": (2,),                # coarse meshes: d_inf + A h^2
     },
     "paper": {
         "hmax": 0.03, "hmax_fig3": 0.03, "lengths": (0.5, 3.0), "step": 0.05, "tol": 0.005,
@@ -60,6 +66,13 @@ _SETTINGS = {
         "fig7_curvatures": (1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
         "ribbon_step": 0.01,
         "marker_gap": 0.1,
+        "hmax_supplement": 0.03,
+        "supplement_grid": (151, 81),
+        # the recorded study (benchmarks/results/convergence_nested*_L1.8_aR5.json and
+        # convergence_fit_L1.8_aR5.txt: three nested families, fitted over h <= 0.12)
+        "figS1_families": ((0.16, 2, 2), (0.14, 2, 2), (0.12, 2, 2)),
+        "figS1_fit_max_h": 0.12,
+        "figS1_fit_powers": (2, 3),              # d_inf + A h^2 + B h^3
     },
 }
 

@@ -17,7 +17,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ..params import Sheet
-from ..plot import shaded, top_surface
+from ..plot import draw_surface, top_surface
 from ..solve import solve
 from .cache import cached, data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
@@ -101,7 +101,7 @@ def _surface_limits(items):
 
 
 def draw_fig3(items, quality: str = "paper"):
-    """Draw Fig. 3 (d-i): shaded deformed sheets coloured by psi/mu, one colour scale.
+    """Draw Fig. 3 (d-i): smoothly shaded deformed sheets coloured by psi/mu, one colour scale.
 
     Parameters
     ----------
@@ -127,7 +127,6 @@ def draw_fig3(items, quality: str = "paper"):
     import matplotlib
     from matplotlib import cm, colors
     from matplotlib.ticker import MaxNLocator
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     n = len(items)
     ncol = min(3, n)
@@ -146,10 +145,9 @@ def draw_fig3(items, quality: str = "paper"):
         mid = 0.5 * (lo + hi)
         for i, (panel, title, _sheet, path, d) in enumerate(items):
             ax = fig.add_subplot(nrow, ncol, i + 1, projection="3d")
-            faces = d["X"][d["tri"]]
-            ax.add_collection3d(Poly3DCollection(
-                faces, facecolors=shaded(cmap(norm(np.maximum(d["psi"], 0.0))), faces),
-                linewidths=0))
+            # smooth shading: psi/mu averaged to the vertices, interpolated with the
+            # normals on sub-triangles (skfem_sheet.plot.draw_surface)
+            draw_surface(ax, d["X"], d["tri"], d["psi"], norm, cmap, subdivisions=2)
             for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
                 set_lim(c - span / 2, c + span / 2)
             ax.set_box_aspect((1, 1, 1), zoom=1.08)

@@ -3,7 +3,7 @@
 Examples
 --------
 >>> sorted(FIGURES)
-['fig2', 'fig3', 'fig4', 'fig5', 'fig6', 'fig7']
+['fig2', 'fig3', 'fig4', 'fig5', 'fig6', 'fig7', 'figS1', 'figS3', 'figS4']
 """
 from __future__ import annotations
 
@@ -16,6 +16,9 @@ from .figure4 import fig4
 from .figure5 import fig5
 from .figure6 import fig6
 from .figure7 import fig7
+from .figureS1 import figS1
+from .figureS3 import figS3
+from .figureS4 import figS4
 from .style import DPI
 
 __all__ = ["FIGURES", "make_figure"]
@@ -23,7 +26,7 @@ __all__ = ["FIGURES", "make_figure"]
 #: Figure name -> function ``(quality, data_dir, progress, workers) -> Figure``.
 #: The command line (``skfem_sheet.cli``) offers exactly these names.
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-           "fig7": fig7}
+           "fig7": fig7, "figS1": figS1, "figS3": figS3, "figS4": figS4}
 
 
 def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DATA_DIR,
@@ -53,7 +56,7 @@ def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DA
     >>> make_figure("fig9")
     Traceback (most recent call last):
     ...
-    skfem_sheet.params.ParameterError: name must be one of fig2, ..., fig7, got 'fig9'
+    skfem_sheet.params.ParameterError: name must be one of fig2, ..., figS4, got 'fig9'
     """
     if name not in FIGURES:
         raise ParameterError(f"name must be one of {', '.join(FIGURES)}, got {name!r}")

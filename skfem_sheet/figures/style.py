@@ -17,7 +17,7 @@ import numpy as np
 from .data import row_branches
 
 __all__ = ["COLUMN_WIDTH", "FULL_WIDTH", "DPI", "STYLE", "CURVATURE_COLOURS", "MODE_STYLE",
-           "MODE_LABEL", "new_figure", "styled_figure", "footnote", "panel_label", "fmt", "thin", "segment",
+           "MODE_LABEL", "new_figure", "styled_figure", "footnote", "mesh_footnote", "panel_label", "fmt", "thin", "segment",
            "jump", "draw_row", "tally", "style_handles", "top_legends", "colour_handles", "hmax_of",
            "halo"]
 
@@ -72,6 +72,22 @@ def footnote(fig, quality, text, top=False):
     if quality == "quick":
         fig.text(0.995, 0.998 if top else 0.002, f"quick quality: {text}", ha="right",
                  va="top" if top else "bottom", fontsize=5.5, color="0.45")
+
+
+def mesh_footnote(fig, quality, text):
+    """The mesh in the lower right corner, at every quality (quick ones say so).
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> fig = new_figure(2, 2)
+    >>> mesh_footnote(fig, "paper", "FE hmax 0.03").get_text()
+    'FE hmax 0.03'
+    """
+    prefix = "quick quality: " if quality == "quick" else ""
+    return fig.text(0.995, 0.002, prefix + text, ha="right", va="bottom", fontsize=5.5,
+                    color="0.45")
 
 
 def panel_label(ax, text, loc=(0.02, 0.97)):
