@@ -45,22 +45,17 @@ hmax 0.1.
 """
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import sys
 import time
 
 import numpy as np
 
-try:
-    import skfem_sheet  # noqa: F401
-except ImportError:  # run from a checkout without installing
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from skfem_sheet import Sheet, solve
+from skfem_sheet.analyses.midsurface import clamp_layer_width, midsurface
+from skfem_sheet.io import atomic_write, dumps_json
 
-from skfem_sheet import Sheet, solve  # noqa: E402
-from skfem_sheet.analyses.midsurface import clamp_layer_width, midsurface  # noqa: E402
-from skfem_sheet.io import atomic_write, dumps_json  # noqa: E402
+from harness import parser
 
 SECTIONS = (0.4, 0.8, 1.2)
 CURVATURE = 0.5
@@ -235,7 +230,7 @@ def table(out) -> str:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--hmax", type=float, default=0.03)
     ap.add_argument("--thickness", type=float, default=THICKNESS)
     ap.add_argument("--second-thickness", type=float, default=0.02,

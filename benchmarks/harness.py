@@ -569,7 +569,7 @@ def _child(spec_json, out_path):
             kappa_reached=float(r.kappa), gravity_reached=float(r.gravity),
             volume_change=float(r.volume_change),
             stable=getattr(r, "stable", None), branch=getattr(r, "branch", None),
-            snaps=[list(s) for s in r.snaps],
+            snaps=[s.to_json() for s in r.snaps],
             symmetric=getattr(r, "symmetric", spec.get("symmetric")))
     tmp = out_path + ".tmp"
     with open(tmp, "w") as f:

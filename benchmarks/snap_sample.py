@@ -38,6 +38,14 @@ from harness import (
 )
 
 
+def _snap_text(s):
+    """One snap of a record: a dict (located fold) or, in records made before
+    the located-fold rule, ``[phase, lam, a/R, g]``."""
+    if isinstance(s, dict):
+        return (f"{s['phase']} fold at {s['load']:.6g} (a/R={s['curvature']:.4g} "
+                f"g={s['gravity']:.3g}) d {s['fold_deflection']:.4f}->{s['landing_deflection']:.4f}")
+    return f"{s[0]} lam={s[1]:.4g} a/R={s[2]:.4g} g={s[3]:.3g}"
+
 def sample(n, seed):
     """``n`` seeded random sheets (dicts of Sheet arguments)."""
     return random_sheets(n, seed, thickness=(0.02, 0.045), modulus=(400.0, 2000.0))
@@ -45,7 +53,7 @@ def sample(n, seed):
 
 def _fields(r):
     return dict(deflection=r.deflection, message=r.message, stable=r.stable,
-                negative_eigenvalues=r.negative_eigenvalues, snaps=[list(s) for s in r.snaps],
+                negative_eigenvalues=r.negative_eigenvalues, snaps=[s.to_json() for s in r.snaps],
                 branch=r.branch, newton_iterations=r.newton_iterations,
                 factorizations=r.factorizations, load_steps=r.load_steps,
                 rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
@@ -71,8 +79,7 @@ def report(recs):
     lines = [header]
     for r in recs:
         d = f"{r['deflection']:9.5f}" if "deflection" in r else " " * 9
-        snaps = "; ".join(f"{s[0]} lam={s[1]:.4g} a/R={s[2]:.4g} g={s[3]:.3g}"
-                          for s in r.get("snaps", []))
+        snaps = "; ".join(_snap_text(s) for s in r.get("snaps", []))
         lines.append(f"{r['length']:5.2f} {r['tip_width']:5.2f} {r['curvature']:5.2f} "
                      f"{r['thickness']:6.4f} {r['modulus']:6.0f} {r['path']:16s} {r['status']:9s} "
                      f"{d} {r.get('stable')!s:>6s} {r.get('newton_iterations', 0):6d} "

@@ -151,12 +151,12 @@ def _child(spec_json, out_path):
             linear_share=lin / wall if wall > 0 else None,
             peak_rss_gb=peak_rss_bytes() / GB, rss_before_solve_gb=rss0 / GB,
             deflection=float(r.deflection), branch=r.branch, stable=r.stable,
-            snaps=len(r.snaps), snap_at=[[str(x[0]), float(x[1])] for x in r.snaps],
+            snaps=len(r.snaps), snap_at=[[s.phase, s.load] for s in r.snaps],
             start=getattr(r, "start", "path"),
             coarse_factorizations=int(getattr(r, "coarse_factorizations", 0)),
             coarse_newton_iterations=int(getattr(r, "coarse_newton_iterations", 0)),
             coarse_fallback=getattr(r, "coarse_fallback", ""),
-            coarse_resume=getattr(r, "coarse_resume", ""),
+            coarse_folds=[dict(f) for f in r.start_record.folds],
             polish_iterations=int(getattr(r, "polish_iterations", 0)),
             factor_time_s=fine_s, coarse_factor_time_s=coarse_s,
             equivalent_factorizations=(None if per_fine is None
@@ -232,7 +232,7 @@ def summarise(rows):
         max_total_factorizations=max(total) if total else None,
         n_coarse_fallback=sum(bool(r.get("coarse_fallback")) for r in done
                               if r.get("start") == "coarse"),
-        n_coarse_resumed=sum(bool(r.get("coarse_resume")) for r in done),
+        n_coarse_folds=sum(len(r.get("coarse_folds") or ()) for r in done),
         n=len(rows), n_failed=sum(r.get("status") != "converged" for r in rows),
         n_stable_unknown=sum(r.get("status") == "converged" and r.get("stable") is None
                              for r in rows),
@@ -325,9 +325,8 @@ def _summary_lines(name, s):
             f"{s['n_coarse_fallback']}; fine + coarse in fine factorisations (by the "
             f"factorisation times measured in each solve) median "
             f"{fmt(s.get('median_equivalent_factorizations'), '.1f')}, max "
-            f"{fmt(s.get('max_equivalent_factorizations'), '.1f')}; resumed the fine path after "
-            f"a late coarse snap "
-            f"{s.get('n_coarse_resumed', 0)}; wall median {fmt(s['median_wall_s'], '.1f')} "
+            f"{fmt(s.get('max_equivalent_factorizations'), '.1f')}; coarse folds located on the "
+            f"fine mesh {s.get('n_coarse_folds', 0)}; wall median {fmt(s['median_wall_s'], '.1f')} "
             f"s, max {fmt(s['max_wall_s'], '.1f')} s; back-substitutions median "
             f"{fmt(s['median_back_substitutions'], 'g')}; Newton "
             f"median {fmt(s['median_newton_iterations'], 'g')}, max "

@@ -60,7 +60,7 @@ def _fields(r):
                 gravity_reached=r.gravity, newton_iterations=r.newton_iterations,
                 load_steps=r.load_steps, rejected_steps=r.rejected_steps,
                 wall_time_s=r.wall_time_s, dofs=r.dofs, stable=r.stable,
-                snaps=[list(x) for x in r.snaps])
+                snaps=[s.to_json() for s in r.snaps])
 
 
 def run_point(p, path, hmax):

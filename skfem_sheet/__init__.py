@@ -23,14 +23,16 @@ from .version import __version__
 #: public name -> the module that defines it (imported on first access)
 _LAZY = {
     "Sheet": "skfem_sheet.params",
-    "Result": "skfem_sheet.solve",
-    "SolveError": "skfem_sheet.solve",
+    "Result": "skfem_sheet.result",
+    "SolveError": "skfem_sheet.result",
+    "CoarseStart": "skfem_sheet.starts",
+    "PathStart": "skfem_sheet.starts",
     "NewtonOptions": "skfem_sheet.newton",
     "StepOptions": "skfem_sheet.continuation",
 }
 
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
-           "__version__"]
+           "CoarseStart", "PathStart", "__version__"]
 
 
 def __getattr__(name):

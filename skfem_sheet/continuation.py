@@ -1,47 +1,57 @@
-"""Load paths: adaptive load stepping in curvature and gravity (branch selection).
+"""Load paths: continuation in the loads, with snaps at located folds (branch selection).
 
 In the bistable region the equilibrium reached depends on the load path
 (paper, "Finite-element simulations" and SI "Numerical Method"):
 
 ``"curvature-first"``
-    ramp the clamp curvature at zero gravity, then gravity to 1: selects the
-    curvature-dominated (aloft) shape;
+    ramp the clamp curvature at zero gravity, then gravity to full load:
+    selects the curvature-dominated (aloft) shape;
 ``"gravity-first"``
     ramp gravity at zero curvature, then the curvature: selects the
     gravity-dominated (drooped) shape.
 
-Each phase runs a load parameter ``lam`` from 0 to 1 with adaptive steps, by
-the engine's natural-continuation driver (:func:`~skfem_sheet.engine.loadpath.ramp`):
-every step is warm-started by a tangent predictor (one extra back-substitution
-with the last factorisation) and corrected by Newton (the engine's corrector,
-through :func:`~skfem_sheet.newton.newton`); steps grow after easy corrections
-and are halved after failures.  This module says what a step of a sheet is;
-the loops are the engine's.
+Each phase is traced by the engine's load-path driver
+(:func:`skfem_sheet.engine.ramp`) in its load fraction ``lam`` (0 to 1),
+with the sheet as an engine problem (:class:`~skfem_sheet.sheet_engine.LoadPhase`):
+natural steps where the branch is gentle, pseudo-arclength where it is
+steep, every step accepted by the one step rule
+(:class:`~skfem_sheet.engine.StepRule`).  Under quasi-static loading the
+sheet leaves its branch exactly where the load has a **turning point** (a
+fold): there one eigenvalue of the constrained Hessian crosses zero and the
+stable branch ends.  The driver detects it (the tangent's load component
+changes sign, and one more negative eigenvalue past it) and locates it with
+the minimally augmented system; the sheet then **snaps**: it is moved off the
+fold along the null vector, downhill in energy, settled at the fold load by
+pseudo-transient continuation onto the stable state there, and the ramp
+goes on from that state (:class:`Snap` records it).  A branch that is merely
+steep has no turning point, is followed, and records no snap.
 
-End states are verified: after a snap-through and at full load the inertia of
-the tangent is read (:func:`~skfem_sheet.analyses.stability.stability`); an
-unstable equilibrium is left along its unstable eigenvector by a
-pseudo-transient settle (recorded as a snap), and a path that cannot leave it
-fails with a message saying that it ended on an unstable equilibrium.
+The end state at full load is verified: a stable equilibrium (inertia of
+the constrained tangent), else the path fails and says so.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.sparse.linalg as spla
-from scipy.sparse.linalg import ArpackError, ArpackNoConvergence
 
+from .analyses.observables import tip_deflection
 from .analyses.stability import stability
-from .engine.loadpath import Attempt, RampControl, ramp
+from .engine import StepRule, Tolerances, ramp
+from .engine.protocol import Counting
 from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, newton, pseudo_transient, timed
 from .params import ParameterError, check_range
+from .sheet_engine import LoadPhase, SheetLoadProblem
 
-__all__ = ["PATHS", "StepOptions", "PathOutcome", "load_phases", "follow_path",
-           "end_state_verdict", "elastica_state", "cylinder_state"]
+__all__ = ["PATHS", "StepOptions", "Snap", "Fold", "PathOutcome", "load_phases",
+           "follow_path", "snap_from_fold", "newton_tolerances", "end_state_verdict",
+           "elastica_state", "cylinder_state"]
 
 PATHS = ("curvature-first", "gravity-first")
+
+log = logging.getLogger(__name__)
 
 #: Largest tangent whose inertia is checked with SuperLU when the solver cannot tell.
 _SUPERLU_CHECK_DOFS = 100_000
@@ -49,122 +59,121 @@ _SUPERLU_CHECK_DOFS = 100_000
 
 @dataclass(frozen=True)
 class StepOptions:
-    """Adaptive load-step control.
+    """The load steps: their lengths and the one acceptance rule
+    (:class:`~skfem_sheet.engine.StepRule`).
+
+    Lengths are measured per unit of the sheet's size ``max(1, L/a)``
+    (displacements grow with the length): a step is an arclength in the
+    phase's load fraction and the state (about a fraction of the phase where
+    the branch is gentle, a displacement where it is steep).
 
     Attributes
     ----------
     initial_step : float
-        First step, as a fraction of each phase.
+        First step of each phase.
     min_step : float
-        Below this the path is declared failed.
+        Below this the path is declared failed (and says where).
     max_step : float
-        Largest step fraction.
-    grow : float
-        Step growth factor after an easy step (``<= easy_iterations``).
-    easy_iterations : int
-        Number of Newton iterations considered easy (the step then grows).
-    predictor : {"tangent", "hermite"}
-        Tangent predictor, or tangent plus the quadratic term through the
-        previous converged state.
+        Largest step.
+    corrector_distance : float
+        Nominal distance (largest displacement) between a step's prediction
+        and its corrected state.  A step that lands more than four times
+        further is rejected and halved (a jump onto another branch does not
+        shrink, so no jump longer than this is taken silently), and the next
+        step is chosen to land at about this distance.  The points on the way
+        are solved to a tenth of it (their error a small part of the next
+        step's distance); the end of the path and the folds to the
+        tolerances of ``NewtonOptions``.
     elastica_start : bool
         Start the gravity ramp of a flat clamp at full load from the heavy
         elastica (see :func:`elastica_state`) instead of stepping from zero.
-    intermediate_utol : float
-        Newton tolerance on the displacement correction at intermediate load
-        steps (units of a); only the final load is solved to the full
-        tolerance of ``NewtonOptions``.  Intermediate states only need to be
-        close enough to the branch to start the next step.
-    max_correction : float
-        A step whose first Newton correction moves a node further than this
-        (units of a, times the sheet length when it is longer than 1) is
-        rejected and cut: it guards against silently jumping to another branch.
-    snap_step : float
-        When the steps of the second phase have been cut below this, the branch
-        is taken to end there (a fold): the step is solved by pseudo-transient
-        continuation, which lets the sheet snap to the other branch, and the
-        snap-through is recorded in ``PathOutcome.snaps``.
-    snap_radius : float
-        Largest displacement of one pseudo-transient step (units of a, times
-        the sheet length when it is longer than 1).
-    snap_iterations : int
-        Largest number of pseudo-transient steps of one snap (the snap is
-        then retried from a smaller load step, or the path fails).
-    verify : bool
-        Read the inertia after every snap and at full load, and leave an
-        unstable equilibrium (see :func:`follow_path`).
-    max_escapes : int
-        Attempts to leave an unstable equilibrium at one load before the path
-        fails.
-    jump_ratio : float
-        Guard on the whole move of a converged (non-snapping) load step: the
-        corrector's move ``|w_new - w_pred|_inf`` (displacements) may not
-        exceed ``max(jump_ratio * |w_pred - w|_inf, jump_floor * max(1, L))``.
-        On a smooth branch the correction is second order in the step and the
-        prediction first order; a step whose Newton converged onto another
-        branch (across a fold) moves O(1) whatever the step.  Such a step is
-        rejected, so that the ramp cuts it until the fold is settled and
-        recorded as a snap.  A huge value (say 1e9) switches the guard off.
-        1.0: on smooth branches the corrector moved 0.03-0.8 of the
-        prediction (a step of 0.25 from a strongly bent state, or a
-        prediction with the MIP factorisation the previous step left
-        behind); the silent crossing of L 1.4739, a/R 4.8448 gravity-first at
-        hmax 0.1 moved 1.2-6.2 times the prediction in each of its steps.
-    jump_floor : float
-        The guard's floor (units of a, times the sheet length when it is
-        longer than 1): corrections below it are always accepted, so that a
-        smooth branch cannot be rejected forever as the steps shrink (its
-        correction falls as the square of the step).  0.05: half the move
-        that :func:`follow_path` calls a snap.
-    max_move : float
-        The second half of the guard: a converged non-snapping step that moves
-        a node further than this (units of a, times the sheet length when it
-        is longer than 1) is rejected and cut.  Near a fold the tangent is
-        nearly singular and the predictor itself points far along the snap
-        mode, so a Newton that converges there has snapped without the
-        corrector moving much more than predicted; cut below ``snap_step``,
-        the step is settled and the snap recorded (a move of more than
-        ``0.1 max(1, L)`` inside a load step below ``snap_step`` is what
-        :func:`follow_path` calls a snap).  0.15: with 0.25 the MIP Newton
-        still crossed three folds that exact Newton recorded in the stress
-        benchmark at hmax 0.1 (whole moves of 0.19-0.22 max(1, L) in one
-        step; ``benchmarks/results/stress_n100_seed1_hmax0.1_guard.txt``).  Not in
-        the first phase of a path, which has no fold (gravity on a flat
-        clamp, or curvature without gravity) and no snapping: there a steep
-        branch would only cost steps.
     """
 
     initial_step: float = 0.25
-    min_step: float = 1e-3
+    min_step: float = 1e-4
     max_step: float = 1.0
-    grow: float = 2.0
-    easy_iterations: int = 2
-    max_correction: float = 0.25
-    snap_step: float = 0.02
-    intermediate_utol: float = 1e-3
-    predictor: str = "tangent"
+    corrector_distance: float = 0.05
     elastica_start: bool = True
-    snap_radius: float = 0.1
-    snap_iterations: int = 80
-    verify: bool = True
-    max_escapes: int = 2
-    jump_ratio: float = 1.0
-    jump_floor: float = 0.05
-    max_move: float = 0.15
 
     def __post_init__(self):
-        check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
+        check_range("initial_step", self.initial_step, 0, None, lo_open=True)
         check_range("min_step", self.min_step, 0, self.initial_step, lo_open=True)
-        check_range("max_step", self.max_step, self.initial_step, 1)
-        check_range("grow", self.grow, 1, 10)
-        check_range("max_correction", self.max_correction, 0, None, lo_open=True)
-        check_range("snap_radius", self.snap_radius, 0, None, lo_open=True)
-        check_range("snap_iterations", self.snap_iterations, 1, 1000)
-        check_range("max_escapes", self.max_escapes, 0, 10)
-        check_range("jump_ratio", self.jump_ratio, 0, None, lo_open=True)
-        check_range("jump_floor", self.jump_floor, 0, None, lo_open=True)
-        check_range("max_move", self.max_move, 0, None, lo_open=True)
-        if self.predictor not in ("tangent", "hermite"):
-            raise ParameterError(f"predictor must be 'tangent' or 'hermite', got {self.predictor!r}")
+        check_range("max_step", self.max_step, self.initial_step, None)
+        check_range("corrector_distance", self.corrector_distance, 0, 1, lo_open=True)
+
+    def rule(self, scale: float = 1.0) -> StepRule:
+        """The engine's step rule for a sheet of size ``scale`` (``max(1, L/a)``)."""
+        return StepRule(initial=self.initial_step * scale, minimum=self.min_step * scale,
+                        maximum=self.max_step * scale, delta=self.corrector_distance * scale)
+
+    def intermediate_utol(self, scale: float = 1.0) -> float:
+        """Newton's tolerance (largest displacement correction) at the points
+        on the way: a tenth of the nominal corrector distance."""
+        return 0.1 * self.corrector_distance * scale
+
+
+@dataclass(frozen=True)
+class Snap:
+    """A snap-through: the followed branch ended at a located fold of the
+    load, and the sheet jumped onto the stable state at that load.
+
+    Attributes
+    ----------
+    phase : str
+        ``"curvature"`` or ``"gravity"``: the load that was ramped.
+    load : float
+        The fold's load, as a fraction of the phase (``lam``).
+    curvature, gravity : float
+        The loads (a/R and the gravity factor) at the fold.
+    fold_deflection : float
+        Tip deflection d/a at the fold (the last state of the branch).
+    landing_deflection : float
+        Tip deflection d/a of the stable state the sheet landed on.
+    negative_eigenvalues : tuple
+        ``(before, after)``: negative eigenvalues of the constrained Hessian
+        on the branch before the fold and on the step past it (one more: one
+        eigenvalue crossed zero); ``None`` entries where unknown.
+    hmax : float
+        Mesh size on which the fold was located.
+    """
+
+    phase: str
+    load: float
+    curvature: float
+    gravity: float
+    fold_deflection: float
+    landing_deflection: float
+    negative_eigenvalues: tuple = (None, None)
+    hmax: float = float("nan")
+
+    def to_json(self) -> dict:
+        """A plain dict (the ``snaps`` entries of ``solve --json``)."""
+        return {"phase": self.phase, "load": self.load, "curvature": self.curvature,
+                "gravity": self.gravity, "fold_deflection": self.fold_deflection,
+                "landing_deflection": self.landing_deflection,
+                "negative_eigenvalues": list(self.negative_eigenvalues), "hmax": self.hmax}
+
+
+@dataclass(frozen=True)
+class Fold:
+    """A fold met by a load path, with what a finer mesh needs to locate it
+    again: the fold state, its null vector, the state landed on.
+
+    Attributes
+    ----------
+    snap : Snap
+    w : ndarray
+        The full dof vector at the fold.
+    v : ndarray
+        Null vector on the free dofs (largest displacement 1).
+    landing : ndarray
+        The full dof vector landed on (at the fold load).
+    """
+
+    snap: Snap
+    w: np.ndarray = field(repr=False)
+    v: np.ndarray = field(repr=False)
+    landing: np.ndarray = field(repr=False)
 
 
 @dataclass
@@ -176,33 +185,38 @@ class PathOutcome:
     reason: str = ""
     kappa: float = 0.0
     g: float = 0.0
-    steps: list = field(default_factory=list)  # (phase, lam, iterations) per accepted step
+    steps: list = field(default_factory=list)  # (phase, lam, iterations) per accepted point
+    distances: list = field(default_factory=list)  # corrector distance of each (nan: no step)
     rejected_steps: int = 0
-    rejections: list = field(default_factory=list)  # (phase, lam tried, reason, iterations)
-    snaps: list = field(default_factory=list)  # (phase, lam, kappa, g) where the branch was lost
+    snaps: list = field(default_factory=list)  # Snap, in order
+    folds: list = field(default_factory=list)  # Fold, in order (one per snap)
     stable: object = None  # inertia verdict at the end state (None: not known)
     negative_eigenvalues: object = None
-    snap_iterations: int = 0  # Newton-type iterations spent in pseudo-transient settles
-    # (phase, lam tried, predicted move, corrector move, whole move, accepted) of every converged
-    # non-snapping step: the data of the jump guard (StepOptions.jump_ratio)
-    moves: list = field(default_factory=list)
+    snap_iterations: int = 0  # pseudo-transient steps of the snaps
 
 
 def load_phases(path: str, kappa: float, gravity: float = 1.0):
-    """The phases of a load path as ``(name, load(lam) -> (kappa, g))`` pairs.
+    """The phases of a load path as ``(name, start, end)``: the loads
+    ``(curvature, gravity)`` at the start and the end of each phase.
 
     ``gravity`` is the full gravity factor (1: the sheet's own weight); a
     phase whose load is zero is left out (no phase at all for ``kappa = 0``
     and ``gravity = 0``: the reference state is the answer).
+
+    Examples
+    --------
+    >>> load_phases("gravity-first", 2.5)
+    [('gravity', (0.0, 0.0), (0.0, 1.0)), ('curvature', (0.0, 1.0), (2.5, 1.0))]
     """
     if path not in PATHS:
         raise ParameterError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+    kappa, gravity = float(kappa), float(gravity)
     if path == "curvature-first":
-        phases = [("curvature", lambda lam: (lam * kappa, 0.0)),
-                  ("gravity", lambda lam: (kappa, lam * gravity))]
+        phases = [("curvature", (0.0, 0.0), (kappa, 0.0)),
+                  ("gravity", (kappa, 0.0), (kappa, gravity))]
     else:
-        phases = [("gravity", lambda lam: (0.0, lam * gravity)),
-                  ("curvature", lambda lam: (lam * kappa, gravity))]
+        phases = [("gravity", (0.0, 0.0), (0.0, gravity)),
+                  ("curvature", (0.0, gravity), (kappa, gravity))]
     if kappa == 0.0:
         phases = [p for p in phases if p[0] == "gravity"]
     if gravity == 0.0:
@@ -210,24 +224,256 @@ def load_phases(path: str, kappa: float, gravity: float = 1.0):
     return phases
 
 
-def _load_rate(load, lam, eps=1e-6):
-    """d(kappa, g)/dlam by a difference (the loads are linear in lam)."""
-    k0, g0 = load(lam)
-    k1, g1 = load(lam + eps)
-    return (k1 - k0) / eps, (g1 - g0) / eps
+def newton_tolerances(options: NewtonOptions, utol: float | None = None) -> Tolerances:
+    """The sheet's Newton stopping rule as the engine's :class:`Tolerances`
+    (residual relative to the full weight, largest displacement correction);
+    ``utol`` (with no residual bound) for the loose points on the way."""
+    tol = Tolerances(rtol=options.rtol, utol=options.utol, max_iterations=options.max_iterations,
+                     max_halvings=options.max_halvings, divergence_floor=0.1)
+    return tol if utol is None else replace(tol, rtol=1.0, utol=utol)
 
 
-def _tangent_predictor(problem, w, dkappa, dg, kappa, solver, stats):
-    """dw/dlam from ``K_ff dw_f = -(dg f_g)_f - K_fd dw_d`` with the last factorisation."""
-    free, clamp = problem.free, problem.clamp_dofs
-    dw = np.zeros(problem.ndof)
-    if dkappa:
-        dw[clamp] = dkappa * problem.clamp_rate(kappa)
-    rhs = -dg * problem.gravity_load[free]
-    if dkappa:
-        rhs -= timed(stats, "assembly_s", problem.clamp_coupling, w) @ dw[clamp]
-    dw[free] = timed(stats, "linear_solve_s", solver.solve, rhs)
-    return dw
+def _elastica_jump(problem, solver, stats, options, gravity):
+    w = elastica_state(problem, gravity)
+    if w is None:
+        return None
+    return newton(problem, w, gravity, solver, options, stats)
+
+
+def _negatives(problem, solver):
+    """Negative directions of the factorised matrix on the incompressible
+    subspace, ``None`` if the back-end cannot tell (the pseudo-transient
+    shift control)."""
+    return stability(problem, solver)[1]
+
+
+def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *,
+                   newton_options: NewtonOptions, step_options: StepOptions,
+                   negative_eigenvalues=(None, None)):
+    """The snap at a located fold: leave it along its null vector, downhill
+    in energy, and settle at the fold load onto the stable state there.
+
+    The fold state is moved by the nominal corrector distance of
+    ``step_options`` (a step inside Newton's basin) along the null vector ``v``, to the side where the
+    energy falls: along ``v`` the energy at the fold load is ``a s^3 / 6``
+    (``a = v . D^2 R[v, v]``, :attr:`FoldPoint.a`), so ``s = -sign(a)``
+    (the side on which the branch would go on to its unstable half, the way
+    the sheet was moving).  Pseudo-transient continuation
+    (:func:`~skfem_sheet.newton.pseudo_transient`, drawn to stable states)
+    settles it, Newton solves the landed state to ``newton_options``, and its
+    stability is verified.
+
+    Returns
+    -------
+    (Fold or None, str)
+        The fold with its snap record and the landed state, or None and why
+        the snap failed.
+    """
+    problem, solver, stats = sheet.problem, sheet.solver, sheet.stats
+    scale = max(1.0, problem.sheet.length)  # displacements grow with the length
+    eps = step_options.corrector_distance * scale
+    kappa, g = phase.loads(fold.p)
+    v = np.asarray(fold.v, dtype=float)
+    vu = np.abs(v[sheet.free < sheet.nu_dof])
+    v = v / float(vu.max())
+    if fold.a != 0:
+        sign = -float(np.sign(fold.a))
+    else:  # a cusp-like fold: the lower energy side
+        trial = [sheet.energy(fold.u + s * eps * v, (kappa, g))
+                 for s in (1.0, -1.0)]
+        sign = 1.0 if trial[0] <= trial[1] else -1.0
+    w0 = sheet.full(fold.u + sign * eps * v, (kappa, g))
+    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol(scale))
+    # (the pseudo-transient's default trust radius, 0.1, per unit of the sheet's size)
+    pt = pseudo_transient(problem, w0, g, solver, loose, stats, radius=0.1 * scale,
+                          negatives=_negatives)
+    if not pt.converged:
+        return None, f"the snap from the fold did not settle: {pt.reason}", pt.iterations
+    res = newton(problem, pt.w, g, solver, newton_options, stats)
+    if not res.converged:
+        return None, f"the landed state did not converge: {res.reason}", pt.iterations
+    stable, k = end_state_verdict(problem, solver, res.w, stats)
+    if stable is False:
+        return None, (f"the snap landed on an unstable state ({k} negative eigenvalue(s))"), \
+            pt.iterations
+    w_fold = sheet.full(fold.u, (kappa, g))
+    snap = Snap(name, float(fold.value), kappa, g, tip_deflection(problem, w_fold),
+                tip_deflection(problem, res.w), tuple(negative_eigenvalues),
+                float(problem.sheet_mesh.hmax))
+    return Fold(snap, w_fold, v, res.w), "", pt.iterations
+
+
+def follow_path(problem, path: str, kappa: float, solver, *,
+                newton_options: NewtonOptions = NewtonOptions(),
+                step_options: StepOptions = StepOptions(),
+                stats: Stats | None = None, w0=None, progress=None,
+                on_step=None, resume: tuple | None = None,
+                gravity: float = 1.0) -> PathOutcome:
+    """Run a load path from the reference state (or ``w0``) to full load.
+
+    Parameters
+    ----------
+    problem : SheetProblem
+    path : {"curvature-first", "gravity-first"}
+    kappa : float
+        Target clamp curvature a/R.
+    solver : linear-solver back-end
+    newton_options : NewtonOptions
+        The tolerances of the end state (and of the folds and snaps).
+    step_options : StepOptions
+        The load steps.
+    stats : Stats, optional
+        Counts the work (updated in place).
+    w0 : ndarray or None
+        Start state (default: the reference state, zero).
+    progress : callable(fraction_of_path) or None
+    on_step : callable(problem, w, kappa, g) or None
+        Called after each accepted point with its state and load.
+    resume : (phase, lam) or None
+        Resume the path part-way: ``w0`` is an equilibrium at the load
+        fraction ``lam`` of the phase named ``phase`` (``"curvature"`` or
+        ``"gravity"``, see :func:`load_phases`); the earlier phases are
+        skipped and ``steps``/``snaps`` hold only what follows.
+    gravity : float
+        Full gravity factor (1: the sheet's own weight; 0: no gravity).
+
+    Returns
+    -------
+    PathOutcome
+        ``converged`` tells whether full load was reached on an equilibrium
+        that is stable or whose stability the linear solver cannot tell
+        (``stable``, ``negative_eigenvalues``); otherwise ``reason``,
+        ``kappa`` and ``g`` say how far it got and why it stopped.
+        ``snaps`` (and ``folds``, with the states) hold one entry per
+        located fold the sheet snapped from, in order.
+    """
+    stats = stats if stats is not None else Stats()
+    phases = load_phases(path, kappa, gravity)
+    names = [name for name, _, _ in phases]
+    w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
+    out = PathOutcome(w=w)
+    first, lam0 = 0, 0.0
+    if resume is not None:
+        if w0 is None:
+            raise ParameterError("resume needs w0, the state at the resumed load")
+        if not (isinstance(resume, tuple) and len(resume) == 2 and resume[0] in names):
+            raise ParameterError(f"resume must be (phase, lam) with phase one of "
+                                 f"{', '.join(names)}, got {resume!r}")
+        first = names.index(resume[0])
+        lam0 = check_range("resume lam", float(resume[1]), 0, 1)
+        start, end = phases[first][1:]
+        out.kappa, out.g = (float(a + lam0 * (b - a)) for a, b in zip(start, end))
+    sheet = SheetLoadProblem(problem, solver, stats, newton_options)
+    tight = newton_tolerances(newton_options)
+    scale = max(1.0, problem.sheet.length)  # displacements grow with the length
+    loose = newton_tolerances(newton_options, step_options.intermediate_utol(scale))
+    held = None  # the factorisation at w, if the solver holds one
+    last_fact = None
+    for iphase, (name, start, end) in enumerate(phases):
+        if iphase < first:
+            continue
+        lam = lam0 if iphase == first else 0.0
+        last_phase = iphase == len(phases) - 1
+        phase = LoadPhase(sheet, start, end)
+        counter = Counting(phase)
+        if (name == "gravity" and start[0] == 0.0 and step_options.elastica_start
+                and not np.any(w)):
+            # flat sheet from the reference state: at full load from the elastica
+            res = _elastica_jump(problem, solver, stats,
+                                 newton_options if last_phase else
+                                 replace(newton_options, rtol=1.0,
+                                         utol=step_options.intermediate_utol(scale)), end[1])
+            if res is not None and res.converged:
+                w, lam = res.w, 1.0
+                out.w, (out.kappa, out.g) = w, end
+                out.steps.append((name, lam, res.iterations))
+                out.distances.append(float("nan"))
+                held = last_fact = sheet.held(w[problem.free], end)
+                if on_step is not None:
+                    on_step(problem, w, *end)
+            elif res is not None:
+                out.rejected_steps += 1
+
+        def accepted(point, res, name=name, phase=phase, iphase=iphase):
+            nonlocal last_fact
+            loads = phase.loads(point.p)
+            out.steps.append((name, float(point.p[0]), int(point.iterations)))
+            out.distances.append(float(point.distance))
+            out.kappa, out.g = loads
+            last_fact = res.factorization
+            if on_step is not None:
+                on_step(problem, sheet.full(point.u, loads), *loads)
+            if progress is not None:
+                progress((iphase + float(point.p[0])) / len(phases))
+
+        while lam < 1.0:
+            u = w[problem.free]
+            before = counter.stats()
+            branch = ramp(counter, u, [lam], "lam", 1.0, rule=step_options.rule(scale), tol=loose,
+                          end_tol=tight if last_phase else loose,
+                          start=None if held is None else (u, held), on_step=accepted)
+            held = None
+            stats.newton_iterations += (counter.stats() - before).newton_iterations
+            out.rejected_steps += branch.rejected
+            if branch.points:
+                end_point = branch.points[-1]
+                lam = float(end_point.p[0])
+                w = sheet.full(end_point.u, phase.loads(end_point.p))
+                out.w = w
+                out.kappa, out.g = phase.loads(end_point.p)
+            if branch.completed:
+                lam = 1.0
+                # the next phase starts where this one ended, with its tangent
+                # from the Hessian there (not a MIP matrix)
+                held = last_fact if getattr(last_fact, "exact", False) else None
+                break
+            fold = branch.fold
+            if fold is None:
+                out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
+                              f"(kappa={out.kappa:.4g}, g={out.g:.4g}): {branch.reason}")
+                return out
+            f0 = stats.factorizations
+            found, why, n_pt = snap_from_fold(sheet, phase, name, fold,
+                                              newton_options=newton_options,
+                                              step_options=step_options,
+                                              negative_eigenvalues=fold.crossing or (None, None))
+            log.debug("snap: %d factorisations, %d pseudo-transient steps",
+                      stats.factorizations - f0, n_pt)
+            out.snap_iterations += n_pt
+            if found is None:
+                out.reason = (f"{name} phase, fold at {fold.value:.6g} of its range: {why}")
+                return out
+            out.snaps.append(found.snap)
+            out.folds.append(found)
+            w, lam = found.landing, float(fold.value)
+            out.w, out.kappa, out.g = w, found.snap.curvature, found.snap.gravity
+            held = last_fact = sheet.held(w[problem.free], phase.loads([lam]))
+            out.steps.append((name, lam, 0))
+            out.distances.append(float("nan"))
+            if on_step is not None:
+                on_step(problem, w, out.kappa, out.g)
+    if not phases:
+        out.kappa, out.g = 0.0, 0.0
+    # the end state must be a stable equilibrium (or say that it is not known),
+    # read from the Hessian at it
+    if last_fact is None or not getattr(last_fact, "exact", False) \
+            or getattr(last_fact, "generation", -1) != sheet.generation:
+        K = timed(stats, "assembly_s", problem.tangent, w)
+        try:
+            timed(stats, "linear_solve_s", solver.factorize, K, w)
+            stats.factorizations += 1
+        except LinearSolverError as err:
+            out.reason = f"singular tangent at the end state ({err})"
+            return out
+    stable, k = end_state_verdict(problem, solver, w, stats)
+    out.stable, out.negative_eigenvalues = stable, k
+    if stable is False:
+        out.reason = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
+                      f"constrained Hessian) at kappa={out.kappa:.4g}, g={out.g:.4g}: the "
+                      f"path crossed no turning point it could locate")
+        return out
+    out.converged = True
+    return out
 
 
 def elastica_state(problem, g):
@@ -336,32 +582,6 @@ def cylinder_state(problem, kappa, pressure="zero"):
     return w
 
 
-def _predict(w, dw, lam, lam_new, prev):
-    """Hermite predictor: the tangent ``dw`` at ``lam`` plus the quadratic term
-    that makes the curve pass through the previous converged point ``prev``
-    (tangent predictor alone on the first step of a phase)."""
-    h = lam_new - lam
-    if prev is None:
-        return w + h * dw
-    lam0, w0 = prev
-    h0 = lam - lam0
-    c = (w0 - w + h0 * dw) / h0**2
-    return w + h * dw + h**2 * c
-
-
-def _elastica_jump(problem, solver, stats, final, tight, loose, gravity=1.0):
-    w = elastica_state(problem, gravity)
-    if w is None:
-        return None
-    return newton(problem, w, gravity, solver, tight if final else loose, stats)
-
-
-def _negatives(problem, solver):
-    """Negative directions of the factorised matrix on the incompressible
-    subspace, ``None`` if the back-end cannot tell (the pseudo-transient
-    shift control)."""
-    return stability(problem, solver)[1]
-
 
 def end_state_verdict(problem, solver, w, stats):
     """Stability of the equilibrium ``w``: ``(stable, k)``, the one end-state
@@ -416,327 +636,3 @@ def end_state_verdict(problem, solver, w, stats):
         verdict = stability(problem, check)
     return verdict
 
-
-def _unstable_direction(problem, solver, k):
-    """Displacement direction (on the free dofs, ``max |v_u| = 1``) of the most
-    negative eigenvalue found of ``K v = lambda M v`` on the incompressible
-    subspace, from a shift-invert Lanczos (ARPACK) with the factorised tangent
-    ``K``: ``(K^{-1} M)`` has the eigenvalues ``1/lambda`` (and 0 for the
-    pressure), so the largest ones in magnitude are the ``lambda`` nearest 0,
-    which near a lost fold or a saddle include the negative ones.
-    ``None`` if none of the ``k + 3`` nearest is negative."""
-    free = problem.free
-    n = len(free)
-    M = problem.assembler.matrix(problem.mass_data)
-    op = spla.LinearOperator((n, n), matvec=lambda x: solver.solve(M @ x), dtype=float)
-    v0 = solver.solve(M @ np.ones(n))  # deterministic start in the right space
-    nev = int(min(max(k, 1) + 3, n - 2))
-    try:
-        mu, vecs = spla.eigs(op, k=nev, which="LM", v0=v0, tol=1e-8, maxiter=50 * n)
-    except (ArpackError, ArpackNoConvergence):
-        return None
-    lam = np.full(nev, np.inf)
-    good = np.abs(mu) > 0
-    lam[good] = 1.0 / mu[good].real
-    i = int(np.argmin(lam))
-    if not lam[i] < 0:
-        return None
-    v = vecs[:, i].real
-    nu_free = free < problem.nu_dof
-    j = int(np.argmax(np.abs(v[nu_free])))
-    v = v / v[nu_free][j]  # fixed scale and sign
-    return v
-
-
-def _settle(problem, w, g, solver, stats, opts, loose, step_options, scale):
-    """Pseudo-transient settle at gravity ``g`` from ``w`` (a loose stopping
-    rule: a certified plain Newton step below ``intermediate_utol``), then
-    Newton to ``opts``, the tolerance that defines the end state.  Returns the
-    Newton result (its ``iterations`` are those of that final Newton solve)
-    and the number of pseudo-transient steps."""
-    pt = pseudo_transient(problem, w, g, solver, loose, stats,
-                          max_iterations=step_options.snap_iterations,
-                          radius=step_options.snap_radius * scale, negatives=_negatives)
-    if not pt.converged:
-        return pt, pt.iterations
-    return newton(problem, pt.w, g, solver, opts, stats), pt.iterations
-
-
-def _escape(problem, w, g, solver, stats, opts, loose, step_options, scale, k):
-    """Leave the unstable equilibrium ``w`` (the solver holds its tangent):
-    a step of ``0.05 scale`` along the unstable eigenvector (the side of lower
-    energy), then :func:`_settle`.  ``None`` if no unstable direction is found."""
-    v = _unstable_direction(problem, solver, k)
-    if v is None:
-        return None, 0
-    free = problem.free
-    trial = []
-    for sign in (1.0, -1.0):
-        wt = w.copy()
-        wt[free] += sign * 0.05 * scale * v
-        trial.append((problem.energy(wt, g), wt))
-    wt = trial[1][1] if trial[1][0] < trial[0][0] else trial[0][1]
-    return _settle(problem, wt, g, solver, stats, opts, loose, step_options, scale)
-
-
-def _make_stable(problem, w, kappa, g, solver, stats, opts, loose, step_options, scale):
-    """Verify the equilibrium ``w`` at ``(kappa, g)`` and leave it while it is
-    unstable.  Returns ``(w, stable, k, escaped, iterations, message)``:
-    ``escaped`` tells whether ``w`` changed, ``message`` is empty unless the
-    end state is still unstable."""
-    stable, k = end_state_verdict(problem, solver, w, stats)
-    escaped, iterations = False, 0
-    for _ in range(step_options.max_escapes):
-        if stable is not False or not k:
-            break
-        res, n_pt = _escape(problem, w, g, solver, stats, opts, loose, step_options, scale, k)
-        iterations += n_pt
-        if res is None or not res.converged:
-            why = "no unstable direction found" if res is None else res.reason
-            msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
-                   f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g}; leaving it "
-                   f"failed: {why}")
-            return w, stable, k, escaped, iterations, msg
-        w, escaped = res.w, True
-        stable, k = end_state_verdict(problem, solver, w, stats)
-    if stable is False and k:
-        msg = (f"ended on an unstable equilibrium ({k} negative eigenvalue(s) of the "
-               f"constrained Hessian) at kappa={kappa:.4g}, g={g:.4g} after "
-               f"{step_options.max_escapes} attempt(s) to leave it")
-        return w, stable, k, escaped, iterations, msg
-    return w, stable, k, escaped, iterations, ""
-
-
-def follow_path(problem, path: str, kappa: float, solver, *,
-                newton_options: NewtonOptions = NewtonOptions(),
-                step_options: StepOptions = StepOptions(),
-                stats: Stats | None = None, w0=None, progress=None,
-                on_step=None, resume: tuple | None = None,
-                gravity: float = 1.0) -> PathOutcome:
-    """Run a load path from the reference state (or ``w0``) to full load.
-
-    Parameters
-    ----------
-    problem : SheetProblem
-    path : {"curvature-first", "gravity-first"}
-    kappa : float
-        Target clamp curvature a/R.
-    solver : linear-solver back-end
-    progress : callable(fraction_of_path) or None
-    on_step : callable(problem, w, kappa, g) or None
-        Called after each accepted step with its state and load.
-    w0 : ndarray or None
-        Start state (default: the reference state, zero).
-    gravity : float
-        Full gravity factor (1: the sheet's own weight; 0: no gravity).
-    resume : (phase, lam) or None
-        Resume the path part-way: ``w0`` is an equilibrium at the load
-        fraction ``lam`` of the phase named ``phase`` (``"curvature"`` or
-        ``"gravity"``, see :func:`load_phases`), e.g. a state of this path
-        on another mesh, transferred; the earlier phases are skipped and
-        ``steps``/``snaps`` hold only what follows.
-
-    Returns
-    -------
-    PathOutcome
-        ``converged`` tells whether full load was reached on an equilibrium
-        that is stable or whose stability the linear solver cannot tell
-        (``stable``, ``negative_eigenvalues``); otherwise ``reason``,
-        ``kappa`` and ``g`` say how far it got and why it stopped.
-
-    Notes
-    -----
-    Where the second phase's steps have been cut below
-    ``StepOptions.snap_step`` the followed branch is taken to end at a fold:
-    the next step is settled by :func:`~skfem_sheet.newton.pseudo_transient`
-    (a loose, inertia-controlled settle) and a Newton solve, and a jump of
-    more than ``0.1 max(1, L)`` is recorded in ``snaps``.  A Newton that
-    converges across a fold inside an ordinary step would skip that record
-    (and label the branch wrongly): the jump guard
-    (``StepOptions.jump_ratio``, ``jump_floor``, ``max_move``) rejects a
-    converged step whose corrector moved much further than its predictor,
-    or (after the first phase) whose whole move is large, so that the ramp
-    cuts it down to ``snap_step`` and settles it; ``PathOutcome.moves``
-    holds the guard's data of every converged step.  With
-    ``StepOptions.verify`` (default) the inertia is read after every such
-    settle and at full load; an unstable equilibrium is perturbed along its
-    unstable eigenvector and settled again (a snap at full load is recorded
-    as ``(last phase, 1.0, kappa, g)``), and if that fails
-    ``StepOptions.max_escapes`` times the path ends with ``converged=False``
-    and a ``reason`` that says it ended on an unstable equilibrium.
-    """
-    stats = stats if stats is not None else Stats()
-    phases = load_phases(path, kappa, gravity)
-    w = np.zeros(problem.ndof) if w0 is None else np.array(w0, dtype=float)
-    out = PathOutcome(w=w)
-    first, lam0 = 0, 0.0
-    if resume is not None:
-        names = [name for name, _ in phases]
-        if w0 is None:
-            raise ParameterError("resume needs w0, the state at the resumed load")
-        if not (isinstance(resume, tuple) and len(resume) == 2 and resume[0] in names):
-            raise ParameterError(f"resume must be (phase, lam) with phase one of "
-                                 f"{', '.join(names)}, got {resume!r}")
-        first = names.index(resume[0])
-        lam0 = check_range("resume lam", float(resume[1]), 0, 1)
-        out.kappa, out.g = phases[first][1](lam0)
-    have_factor = False
-    scale = max(1.0, problem.sheet.length)  # displacements grow with the length
-    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol)
-    for iphase, (name, load) in enumerate(phases):
-        if iphase < first:
-            continue
-        lam = lam0 if iphase == first else 0.0
-        prev = None  # (lam, w) of the previous converged step of this phase
-        last_phase = iphase == len(phases) - 1
-        if (name == "gravity" and load(0.0)[0] == 0.0 and step_options.elastica_start
-                and not np.any(w)):
-            # flat sheet from the reference state: start at full load from the elastica
-            res = _elastica_jump(problem, solver, stats, last_phase, newton_options, loose,
-                                 gravity)
-            if res is not None and res.converged:
-                w, lam = res.w, 1.0
-                out.w, out.kappa, out.g = w, 0.0, gravity
-                out.steps.append((name, lam, res.iterations))
-                have_factor = True
-                if on_step is not None:
-                    on_step(problem, w, 0.0, gravity)
-                if progress is not None:
-                    progress((iphase + lam) / len(phases))
-            elif res is not None:
-                out.rejected_steps += 1
-                out.rejections.append((name, 1.0, "elastica start: " + res.reason,
-                                       res.iterations, res.corrections))
-
-        def attempt(lam, lam_new, snapping, name=name, load=load, iphase=iphase,
-                    last_phase=last_phase):
-            """One load step from the accepted state ``w`` at ``lam``: the tangent
-            predictor (one back-substitution with the last factorisation), then
-            Newton (or, snapping, a pseudo-transient settle and Newton), then the
-            verification of a snapped state."""
-            nonlocal w, prev, have_factor
-
-            def reject(res, why):
-                """A rejected attempt, recorded; the next one refactorises."""
-                nonlocal have_factor
-                out.rejected_steps += 1
-                out.rejections.append((name, lam_new, why, res.iterations, res.corrections))
-                have_factor = False
-                return Attempt(False, res.iterations, why)
-
-            k_new, g_new = load(lam_new)
-            k_old, _ = load(lam)
-            if not have_factor:
-                K = timed(stats, "assembly_s", problem.tangent, w)
-                try:
-                    timed(stats, "linear_solve_s", solver.factorize, K, w)
-                except LinearSolverError as err:
-                    return Attempt(False, 0, stop=f"singular tangent at the start of the "
-                                   f"{name} phase ({err})")
-                stats.factorizations += 1
-                have_factor = True
-            dk, dg = _load_rate(load, lam)
-            dw = _tangent_predictor(problem, w, dk, dg, k_old, solver, stats)
-            w_pred = _predict(w, dw, lam, lam_new,
-                              prev if step_options.predictor == "hermite" else None)
-            w_pred[problem.clamp_dofs] = problem.clamp_values(k_new)
-            # the branch guard matters once the sheet can be on either branch;
-            # it is lifted when the steps have shrunk to a fold (snap-through)
-            guard = scale * step_options.max_correction if iphase > 0 and not snapping else np.inf
-            final = last_phase and lam_new == 1.0
-            opts = newton_options if final else loose
-            if snapping:
-                # settle loosely, then Newton to this step's tolerance (which
-                # also sets up the factorisation at the new state for the
-                # next predictor)
-                res, n_pt = _settle(problem, w_pred, g_new, solver, stats, opts, loose,
-                                    step_options, scale)
-                out.snap_iterations += n_pt
-            else:
-                # an intermediate step may leave its MIP factorisation for the
-                # next predictor; the final step's solver must hold the
-                # Hessian for the verdict
-                res = newton(problem, w_pred, g_new, solver, opts, stats,
-                             max_first_increment=guard, exact_on_return=final)
-            if not res.converged:
-                return reject(res, res.reason)  # its factorisation is useless
-            w_new = res.w
-            nu = problem.nu_dof
-            if not snapping:
-                # the guard on the whole move: a corrector that moves much further
-                # than the predictor has converged onto another branch
-                predicted = float(np.abs(w_pred[:nu] - w[:nu]).max())
-                corrected = float(np.abs(w_new[:nu] - w_pred[:nu]).max())
-                moved = float(np.abs(w_new[:nu] - w[:nu]).max())
-                limit = max(step_options.jump_ratio * predicted,
-                            step_options.jump_floor * scale)
-                why = ""
-                if corrected > limit:
-                    why = (f"the corrector moved {corrected:.3g} against a predicted "
-                           f"{predicted:.3g} (limit {limit:.3g}): a jump of branch "
-                           f"inside the step")
-                elif iphase > 0 and moved > step_options.max_move * scale:
-                    why = (f"the step moved {moved:.3g} (more than "
-                           f"{step_options.max_move * scale:.3g}): a jump of branch "
-                           f"inside the step unless it is settled as a snap")
-                out.moves.append((name, lam_new, predicted, corrected, moved, not why))
-                if why:
-                    return reject(res, why)  # factorised on the other branch
-            if snapping:
-                if step_options.verify:
-                    # the settle is drawn to stable states, but check
-                    w_new, _, _, _, n_e, msg = _make_stable(
-                        problem, w_new, k_new, g_new, solver, stats, opts, loose,
-                        step_options, scale)
-                    out.snap_iterations += n_e
-                    if msg:
-                        return Attempt(True, res.iterations, stop=f"{name} phase, snap at "
-                                       f"{lam_new:.4g} of its range: {msg}")
-                # a snap only if the sheet really left its branch; the
-                # damped iteration may also settle just short of the fold
-                # (a load step below snap_step moves nodes by a few 1e-2 at most)
-                if np.abs(w_new[:nu] - w[:nu]).max() > 0.1 * scale:
-                    out.snaps.append((name, lam_new, k_new, g_new))
-            prev = (lam, w)
-            w = w_new
-            out.w, out.kappa, out.g = w, k_new, g_new
-            out.steps.append((name, lam_new, res.iterations))
-            if on_step is not None:
-                on_step(problem, w, k_new, g_new)
-            # Newton leaves the factorisation of its last tangent behind
-            if progress is not None:
-                progress((iphase + lam_new) / len(phases))
-            return Attempt(True, res.iterations)
-
-        if lam < 1.0:
-            control = RampControl(step_options.initial_step, step_options.min_step,
-                                  step_options.max_step, step_options.grow,
-                                  step_options.easy_iterations,
-                                  step_options.snap_step if iphase > 0 else None)
-            done = ramp(lam, control, attempt)
-            if done.reason == "step below min_step":
-                out.reason = (f"{name} phase stopped at {done.lam:.4g} of its range "
-                              f"(kappa={out.kappa:.4g}, g={out.g:.4g}): step below "
-                              f"{step_options.min_step:g}; last Newton failure: "
-                              f"{done.last_failure}")
-                return out
-            if not done.converged:
-                out.reason = done.reason
-                return out
-    if step_options.verify:
-        # the end state must be a stable equilibrium (or say that it is not known)
-        w_end, stable, k, escaped, n_e, msg = _make_stable(
-            problem, w, out.kappa, out.g, solver, stats, newton_options, loose,
-            step_options, scale)
-        out.snap_iterations += n_e
-        out.stable, out.negative_eigenvalues = stable, k
-        if escaped:
-            out.snaps.append((phases[-1][0], 1.0, out.kappa, out.g))
-            out.w = w_end
-        if msg:
-            out.reason = msg
-            return out
-    else:
-        out.stable, out.negative_eigenvalues = stability(problem, solver)
-    out.converged = True
-    return out

@@ -68,6 +68,17 @@ class NewtonOptions:
         the stress defect (second order in the step) is negligible and the
         exact tangent is used, so a solve that converges quickly ends on an
         exact factorisation and needs no refactorisation for its inertia.
+    final_utol : float
+        The end state of a solve is polished by simplified-Newton corrections
+        with the factorisation at hand (back-substitutions only,
+        :func:`polish`) until the last one is at most this (units of a):
+        Newton stops when the next correction is below ``utol`` without
+        applying it, so two solves of one equilibrium (e.g. the two starts of
+        :func:`skfem_sheet.solve.solve`) then agree in d to about
+        ``final_utol`` instead of ``utol``.
+    polish_iterations : int
+        Most corrections of that polish (it stops early, keeping the state it
+        has, if a correction does not shrink to at most half the previous one).
     """
 
     rtol: float = 1e-4
@@ -76,6 +87,8 @@ class NewtonOptions:
     max_halvings: int = 6
     linearization: str = "mip"
     mip_threshold: float = 2e-3
+    final_utol: float = 1e-9
+    polish_iterations: int = 4
 
     def __post_init__(self):
         check_range("rtol", self.rtol, 0, 1, lo_open=True)
@@ -86,6 +99,8 @@ class NewtonOptions:
             raise ParameterError("linearization must be 'exact' or 'mip', got "
                                  f"{self.linearization!r}")
         check_range("mip_threshold", self.mip_threshold, 0, 1)
+        check_range("final_utol", self.final_utol, 0, 1, lo_open=True)
+        check_range("polish_iterations", self.polish_iterations, 0, 100)
 
 
 @dataclass
@@ -342,7 +357,7 @@ def polish(problem, w, g, solver, stats: Stats, *, utol: float, max_iterations: 
     solved to that tolerance) or does not shrink to at most half the previous
     one (the factorisation is then too far from ``w``).  Used by
     :func:`skfem_sheet.solve.solve` to bring every converged end state to
-    ``FINAL_UTOL`` whatever route reached it.
+    ``NewtonOptions.final_utol`` whatever route reached it.
 
     Returns
     -------

@@ -293,15 +293,15 @@ def test_planform_csv_of_a_trapezoid_gives_the_trapezoid(tmp_path, capsys):
 
 def test_solve_start_coarse_reports_the_coarse_work_separately(tmp_path):
     out = tmp_path / "c.json"
-    p = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.1",
+    p = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.05",
             "--start", "coarse", "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
     assert p.returncode == 0, p.stderr
     data = json.loads(out.read_text())
     assert data["start"] == "coarse" and data["coarse_hmax"] == 0.12
-    assert data["coarse_fallback"] == "" and data["coarse_factorizations"] > 0
+    assert data["start_record"]["fallback"] == "" and data["coarse_factorizations"] > 0
     assert 0 < data["factorizations"] <= 6 and data["back_substitutions"] > 0
-    ref = solve(Sheet(length=0.8, curvature=2.0), hmax=0.1)
-    assert data["deflection"] == pytest.approx(ref.deflection, rel=1e-4)
+    ref = solve(Sheet(length=0.8, curvature=2.0), hmax=0.05, start="path")
+    assert data["deflection"] == pytest.approx(ref.deflection, rel=1e-7)
     bad = run("solve", "--length", "0.8", "--start", "fine", "--quiet")
     assert bad.returncode != 0 and "start" in bad.stderr
 
@@ -314,7 +314,7 @@ def test_solve_starts_coarse_by_default_and_path_with_a_series(tmp_path):
     assert _start(p.parse_args(["--series", str(tmp_path), "--start", "coarse"])) == "coarse"
     assert _start(p.parse_args(["--start", "path"])) == "path"
     out = tmp_path / "d.json"
-    r = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.1",
+    r = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.05",
             "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())

@@ -7,7 +7,7 @@ import pytest
 
 from skfem_sheet import Sheet
 from skfem_sheet.analyses.stability import stability
-from skfem_sheet.continuation import StepOptions, _unstable_direction, follow_path
+from skfem_sheet.continuation import follow_path
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.newton import NewtonOptions, Stats, newton, polish, pseudo_transient, timed
 from skfem_sheet.params import ParameterError
@@ -84,38 +84,10 @@ def test_pseudo_transient_refuses_steps_on_an_indefinite_model():
     # sigma from 100 by factors of 4 up to 1e6 times the shift: 10 refactorisations
     assert not res.converged and "positive definite" in res.reason
     assert res.iterations == 0 and stats.newton_iterations == 0 and stats.factorizations >= 10
-    with pytest.raises(ParameterError, match="snap_radius"):
-        StepOptions(snap_radius=0.0)
+    with pytest.raises(ParameterError, match="radius"):
+        pseudo_transient(problem, w0, 1.0, solver, NewtonOptions(), Stats(), radius=0.0)
 
 
-def test_unstable_direction_is_the_negative_eigenvector():
-    """Shift a stable tangent by ``-s M`` until one direction on the
-    incompressible subspace is negative: the direction found must satisfy
-    ``(K - s M) v = lambda M v`` with ``lambda < 0`` (pressure rows included)."""
-    problem = _flat_problem()
-    solver = make_linear_solver("superlu")
-    out = follow_path(problem, "curvature-first", problem.sheet.curvature, solver)
-    K = problem.tangent(out.w)
-    M = problem.assembler.matrix(problem.mass_data)
-    s, k = 1e-3, 0
-    while not k:
-        s *= 2.0
-        solver.factorize((K - s * M).tocsr())
-        k = stability(problem, solver)[1]
-        assert k is not None, "SuperLU pivoted off the diagonal"
-    v = _unstable_direction(problem, solver, k)
-    assert v is not None
-    A = (K - s * M).tocsr()
-    lam = float(v @ (A @ v)) / float(v @ (M @ v))
-    assert lam < 0
-    np.testing.assert_allclose(A @ v, lam * (M @ v), atol=1e-6 * np.abs(A @ v).max())
-    nu_free = problem.free < problem.nu_dof
-    assert np.abs(v[nu_free]).max() == pytest.approx(1.0)
-
-
-# --------------------------------------------------------------------------------------
-# the mixed-integration-point linearisation of the load-path Newton (issue 17)
-# --------------------------------------------------------------------------------------
 def test_mip_newton_converges_to_the_exact_newton_state_and_leaves_the_hessian():
     """Same residual, so the same equilibrium (to the tolerance); a converged
     MIP solve leaves the exact tangent at its state factorised, whose inertia
@@ -145,8 +117,8 @@ def test_bad_linearization_raises():
 
 
 def test_polish_applies_corrections_until_final_utol():
-    # solve's end-state polish (FINAL_UTOL, POLISH_ITERATIONS)
-    from skfem_sheet.solve import FINAL_UTOL, POLISH_ITERATIONS
+    # solve's end-state polish (NewtonOptions.final_utol, polish_iterations)
+    FINAL_UTOL, POLISH_ITERATIONS = NewtonOptions().final_utol, NewtonOptions().polish_iterations
 
     sheet = Sheet(length=0.8, curvature=2.0)
     problem = build_problem(sheet, 0.15, None, 2, half=True)

@@ -83,16 +83,16 @@ def test_last_step_equals_result_write(curvature_first):
 
 def test_series_is_collected_only_when_asked(tmp_path, monkeypatch):
     """Without series no hook is passed to the load path (nothing is kept)."""
-    solve_module = sys.modules["skfem_sheet.solve"]
+    starts_module = sys.modules["skfem_sheet.starts"]
 
     seen = []
-    real = solve_module.follow_path
+    real = starts_module.follow_path
 
     def spy(*a, **kw):
         seen.append(kw.get("on_step"))
         return real(*a, **kw)
 
-    monkeypatch.setattr(solve_module, "follow_path", spy)
+    monkeypatch.setattr(starts_module, "follow_path", spy)
     solve(Sheet(length=0.4), hmax=0.3)
     assert seen == [None]
     with pytest.raises(ParameterError, match="series"):

@@ -162,7 +162,7 @@ def test_lost_branch_snaps_and_says_so():
     up = solve(sheet, path="curvature-first", hmax=0.1, symmetric=False)
     popped = solve(sheet, path="gravity-first", hmax=0.1, symmetric=False)
     assert up.snaps == () and up.branch == "curvature-dominated"
-    assert len(popped.snaps) == 1 and popped.snaps[0][0] == "curvature"
+    assert len(popped.snaps) == 1 and popped.snaps[0].phase == "curvature"
     assert popped.branch == "curvature-dominated"
     assert popped.deflection == pytest.approx(up.deflection, abs=1e-4)
 

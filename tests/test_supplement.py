@@ -8,7 +8,7 @@
   stretching comes to dominate);
 - the claims of Figs. S3 and S4 at a coarse mesh (hmax 0.1) through
   ``benchmarks/ansatz.py``'s own functions, with the numbers measured at hmax
-  0.1 and 0.03 (``benchmarks/results/ansatz_hmax0.03.txt``) written beside
+  0.1 and 0.03 (``benchmarks/results/accuracy/ansatz_hmax0.03.txt``) written beside
   each tolerance.
 """
 import importlib.util

@@ -27,7 +27,7 @@ from skfem_sheet.plot import (
     vertex_values,
 )
 
-RESULTS = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "results")
+RESULTS = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "results", "accuracy")
 
 
 def _no_solve(*args, **kwargs):

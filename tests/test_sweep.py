@@ -21,6 +21,7 @@ import skfem_sheet.studies.sweep as sw
 from skfem_sheet import __version__
 from skfem_sheet.cli import main
 from skfem_sheet.cli.ranges import parse_values
+from skfem_sheet.continuation import Snap
 from skfem_sheet.mesh import estimate_dofs
 from skfem_sheet.params import ParameterError, Sheet
 from skfem_sheet.solve import MAX_DOFS, Result, solve
@@ -48,7 +49,7 @@ class FakeSolve:
         L = sheet.length
         if L == 0.9:
             raise RuntimeError("boom in the solver")
-        snaps = (("gravity", 0.5, 2.5, 0.5),) if L == 0.7 else ()
+        snaps = ((Snap("gravity", 0.5, 2.5, 0.5, 0.1, 0.6),) if L == 0.7 else ())
         # the load path's branch, the other one if it snapped (as solve labels it)
         branch = [("curvature-dominated", "gravity-dominated")[(path == "gravity-first")
                                                              != bool(snaps)]]

@@ -6,13 +6,13 @@ Parts (default: all, in this order), each writing ``docs/gallery/<part>.png``:
 
 - ``figS1``: ``python -m skfem_sheet figure figS1 --quality paper --data-dir DIR`` after
   :func:`skfem_sheet.figures.figureS1.seed_from_benchmarks` filled DIR with the recorded
-  runs of ``benchmarks/convergence.py`` (``benchmarks/results/convergence*_L1.8_aR5.json``:
+  runs of ``benchmarks/convergence.py`` (``benchmarks/results/accuracy/convergence*_L1.8_aR5.json``:
   three nested families and the default mesh; no solve) and
-  ``benchmarks/results/manufactured.json`` was copied to DIR (panel b);
+  ``benchmarks/results/accuracy/manufactured.json`` was copied to DIR (panel b);
 - ``figS3``, ``figS4``: ``python -m skfem_sheet figure figS3|figS4 --quality paper
   --data-dir DIR`` (one solve each at hmax 0.03);
 - ``fig7``: :func:`skfem_sheet.figures.draw_fig7` of the recorded paper-quality fold
-  curves (``benchmarks/results/foldcurves-paper_hmax0.03.csv``: 18 curves at hmax 0.03,
+  curves (``benchmarks/results/speed/foldcurves-paper_hmax0.03.csv``: 18 curves at hmax 0.03,
   ``fold_map_paper_hmax0.03.txt``), what ``figure fig7 --quality paper`` draws from its
   table;
 - ``fig6``: :func:`skfem_sheet.figures.draw_fig6` with the paper ribbon map
@@ -28,7 +28,7 @@ Parts (default: all, in this order), each writing ``docs/gallery/<part>.png``:
   (PyVista off screen; the ``render`` extra);
 - ``planform_bites``: the triangle at L/a 1.3, a/R 2.5 with no, one and two bites of
   radius 0.25 (curvature-first, ``start="path"``) at hmax 0.03, one colour scale (the
-  hmax 0.03 runs of ``benchmarks/results/planform_bites_h0.03.txt``).
+  hmax 0.03 runs of ``benchmarks/results/acceptance/planform_bites_h0.03.txt``).
 """
 from __future__ import annotations
 
@@ -65,8 +65,8 @@ def part_figS1(data_dir):
     from skfem_sheet.cli import main
     from skfem_sheet.figures.figureS1 import seed_from_benchmarks
 
-    seed_from_benchmarks(data_dir, RESULTS)
-    shutil.copyfile(os.path.join(RESULTS, "manufactured.json"),
+    seed_from_benchmarks(data_dir, os.path.join(RESULTS, "accuracy"))
+    shutil.copyfile(os.path.join(RESULTS, "accuracy", "manufactured.json"),
                     os.path.join(data_dir, "manufactured.json"))
     return main(["figure", "figS1", "--quality", "paper", "--data-dir", data_dir,
                  "--out", _out("figS1"), "--quiet"])
@@ -90,7 +90,7 @@ def recorded_curves():
     """The recorded paper-quality fold-curve table, with the table's string columns."""
     import pandas as pd
 
-    df = pd.read_csv(os.path.join(RESULTS, "foldcurves-paper_hmax0.03.csv"))
+    df = pd.read_csv(os.path.join(RESULTS, "speed", "foldcurves-paper_hmax0.03.csv"))
     for c in ("error", "message", "cusp_located", "second", "points"):
         df[c] = df[c].astype(object).where(df[c].notna(), "").astype(str)
     return df

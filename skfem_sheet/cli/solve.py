@@ -17,7 +17,7 @@ from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
-from ..solve import COARSE_HMAX, MIN_COARSENING, STARTS, solve
+from ..solve import STARTS, CoarseStart, solve
 
 __all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
            "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
@@ -75,15 +75,17 @@ def add_solve_args(p, hmax=0.03) -> None:
                         "mirror-symmetric half")
     p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--start", default=None, choices=STARTS,
-                   help="coarse (default): the load path on the mesh --coarse-hmax, finished "
-                        "on --hmax by Newton (after a late coarse snap the path resumes on "
-                        "--hmax before it; the whole path runs on --hmax where the coarse "
-                        "one fails); path: the load path on the mesh --hmax (the default "
-                        "with --series, which then holds every load step)")
-    p.add_argument("--coarse-hmax", type=float, default=COARSE_HMAX,
-                   help=f"mesh size of the coarse path of --start coarse (default {COARSE_HMAX}, "
-                        f"used where it is at least {MIN_COARSENING:g} times --hmax; closer, "
-                        f"the path runs on --hmax)")
+                   help="coarse (default): the load path on the mesh --coarse-hmax, its folds "
+                        "located again on --hmax (the sheet snaps there where they lie inside "
+                        "their phase) and its end state finished on --hmax by Newton (the "
+                        "whole path runs on --hmax where that fails); path: the load path on "
+                        "the mesh --hmax (the default with --series, which then holds every "
+                        "load step)")
+    p.add_argument("--coarse-hmax", type=float, default=CoarseStart.hmax,
+                   help=f"mesh size of the coarse path of --start coarse (default "
+                        f"{CoarseStart.hmax}, used where it is at least "
+                        f"{CoarseStart.min_coarsening:g} times --hmax; closer, the path runs "
+                        f"on --hmax)")
     p.add_argument("--gravity", type=float, default=1.0,
                    help="gravity as a fraction of the sheet's own weight, 0 to 10 "
                         "(default 1; 0: no gravity)")
@@ -197,10 +199,13 @@ def run(args) -> int:
     for f in (args.json, args.vtu, args.png):
         if f:
             print(f"  wrote {f}")
+    for snap in result.snaps:
+        print(f"  snapped in the {snap.phase} phase at the fold at {snap.load:.6g} of its "
+              f"range (a/R {snap.curvature:.6g}, g {snap.gravity:.6g}): d/a "
+              f"{snap.fold_deflection:.6f} -> {snap.landing_deflection:.6f}")
     if result.coarse_factorizations:
         print(f"  start {result.start}: {result.factorizations} factorisations on hmax "
               f"{result.hmax:g}, {result.coarse_factorizations} on the coarse mesh"
-              + (f" (resumed: {result.coarse_resume})" if result.coarse_resume else "")
               + (f" (ran the path on hmax {result.hmax:g}: {result.coarse_fallback})"
                  if result.coarse_fallback else ""))
     if pvd:

@@ -20,9 +20,10 @@ Modules
     fold curves in two parameters and cusps on them (:func:`fold_curve`).
 """
 from .branch import Branch, BranchPoint, arclength, natural, sweep
-from .corrector import Bordered, NewtonResult, Tolerances, correct, newton
+from .corrector import Bordered, ChordTest, NewtonResult, Tolerances, correct, newton
 from .curves import Cusp, FoldCurve, FoldCurvePoint, fold_curve
 from .fold import FoldPoint, fold_on_section, fold_test, locate_fold
+from .loadpath import ramp
 from .protocol import (
                        DenseFactorization,
                        EngineFailure,
@@ -31,9 +32,11 @@ from .protocol import (
                        SparseLUFactorization,
                        Stats,
 )
+from .steps import StepRule
 
 __all__ = [
                        "Bordered",
+                       "ChordTest",
                        "Branch",
                        "BranchPoint",
                        "Cusp",
@@ -47,6 +50,7 @@ __all__ = [
                        "Problem",
                        "SparseLUFactorization",
                        "Stats",
+                       "StepRule",
                        "Tolerances",
                        "arclength",
                        "correct",
@@ -56,5 +60,6 @@ __all__ = [
                        "locate_fold",
                        "natural",
                        "newton",
+                       "ramp",
                        "sweep",
 ]

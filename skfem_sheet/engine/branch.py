@@ -77,6 +77,9 @@ class BranchPoint:
     s : float
         Arclength from the first point (arclength; natural: the distance
         travelled in the parameter).
+    distance : float
+        The corrector distance of the step that reached it (the distance
+        from its prediction; :func:`~skfem_sheet.engine.loadpath.ramp`).
     """
 
     p: np.ndarray
@@ -85,6 +88,7 @@ class BranchPoint:
     iterations: int = 0
     tangent_p: float = 1.0
     s: float = 0.0
+    distance: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -106,6 +110,8 @@ class Branch:
         Natural continuation: ``(last value on the branch, first value where
         it was not found)`` when it ended without reaching ``stop``.
     stats : Stats
+    rejected : int
+        Steps tried and rejected (counted by :func:`~skfem_sheet.engine.loadpath.ramp`).
     """
 
     points: tuple
@@ -115,6 +121,7 @@ class Branch:
     reason: str = ""
     bracket: tuple = ()
     stats: Stats = field(default_factory=Stats)
+    rejected: int = 0
 
     @property
     def values(self):
@@ -146,7 +153,8 @@ def _correct(counter, u, p, tol, linearization=None):
 
 
 def _without_state(pt):
-    return BranchPoint(pt.p, None, pt.negative_eigenvalues, pt.iterations, pt.tangent_p, pt.s)
+    return BranchPoint(pt.p, None, pt.negative_eigenvalues, pt.iterations, pt.tangent_p, pt.s,
+                       pt.distance)
 
 
 def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float = 1e-4,

@@ -33,11 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..params import check_range
+from ..params import ParameterError, check_range
 from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 
-__all__ = ["FoldPoint", "equilibrium_on_section", "fold_on_section", "fold_test", "locate_fold"]
+__all__ = ["FoldPoint", "equilibrium_on_section", "fold_on_branch", "fold_on_section", "fold_test",
+           "locate_fold"]
 
 
 @dataclass(frozen=True)
@@ -170,6 +171,8 @@ class FoldSystem:
         self.c, self.v0, self.idx = counter, _unit(v0), list(idx)
         self.arclength = arclength  # (t_u, t_p (all params), u_ref, p_ref, ds) or None
         self.last = None
+        self.previous = None  # the previous iterate (for the Newton matrix)
+        self.one_sided = bool(getattr(counter, "fd_one_sided", False))
         #: The first linearisation: ``{"residual", "du", "dp", "dudp"}`` (the
         #: residual norm and the Newton correction at the start, and the
         #: tangents ``du/dp_idx`` there, one column per free parameter).
@@ -209,7 +212,11 @@ class FoldSystem:
         r = c.residual(u, p)
         if not np.all(np.isfinite(r)):
             raise EngineFailure("non-finite residual")
-        J = c.jacobian(u, p)
+        # the Newton matrix (e.g. a MIP linearisation from the previous
+        # iterate): at convergence it is the tangent, so sigma vanishes at the
+        # fold itself; the derivatives of sigma use the tangent
+        J = c.newton_jacobian(u, p, self.previous) if not self.one_sided else c.jacobian(u, p)
+        self.previous = u
         fact = c.factorize(J)
 
         def matvec(x):
@@ -302,19 +309,25 @@ def arclength_point(counter, i, t, u_ref, p_ref, h, tol):
     return correct(counter, u_ref + h * t_u, p_pred, linearize, tol)
 
 
-def section_linearization(counter, i, t_u, t_pi, distance):
+def section_linearization(counter, i, t_u, t_pi, distance, reference=None):
     """Newton's linearisation of an equilibrium with the parameter ``p[i]``
     free on a linear section ``distance(u, p) = 0`` whose gradient is
     ``(t_u, t_pi)``: the bordered system ``[[K, R_p], [t_u^T, t_pi]]``
-    (one factorisation of ``K``; ``extra`` is the :class:`Bordered` matrix).
-    The one such linearisation of the arclength step and of
-    :func:`equilibrium_on_section`."""
+    (one factorisation of ``K``, the Newton matrix of
+    :meth:`~skfem_sheet.engine.protocol.Counting.newton_jacobian`; ``extra``
+    is the :class:`Bordered` matrix).  The one such linearisation of the arclength step and of
+    :func:`equilibrium_on_section`.  ``reference``: the state passed to the
+    Newton matrix as the previous iterate of the first one (e.g. the
+    equilibrium the start was predicted from)."""
+
+    previous = [reference]
 
     def linearize(uu, pp):
         r = counter.residual(uu, pp)
         if not np.all(np.isfinite(r)):
             raise EngineFailure("non-finite residual")
-        J = counter.jacobian(uu, pp)
+        J = counter.newton_jacobian(uu, pp, previous[0])
+        previous[0] = uu
         f = counter.factorize(J)
         N = distance(uu, pp)
         M = Bordered(f, lambda x: J @ x, counter.dresidual(uu, pp, i)[:, None],
@@ -648,3 +661,141 @@ def equilibrium_on_section(problem, u, p, param, section, *,
         counter, i, t_u, t_p[i],
         lambda uu, pp: counter.inner(t_u, uu) + float(t_p @ pp) - float(c))
     return correct(counter, np.array(u, dtype=float), p, linearize, tol)
+
+
+def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERANCES,
+                   ptol: float = 1e-9, max_iterations: int = 12, check_inertia: bool = False):
+    """The fold near the equilibrium ``(u, p)`` located on the branch itself.
+
+    The branch near a fold is parametrised by the section coordinate
+    ``c = <v, u>`` along the approximate null vector ``v`` (the equilibrium
+    on each section ``<v, u> = c`` with ``p_param`` free is regular at the
+    fold, :func:`equilibrium_on_section`).  The fold is where the branch
+    turns in the parameter, ``dp/dc = 0``, i.e. where the test function
+    ``sigma`` of the minimally augmented system vanishes on the branch;
+    ``dp/dc`` is read off the bordered matrix of each section solve (two
+    back-substitutions), and ``c`` is found by the secant method on it.  Each
+    iteration is a section solve from the last point (a few factorisations),
+    every iterate an equilibrium: unlike Newton on the whole fold system,
+    whose first step goes straight off a strongly curved branch (a thin
+    sheet: a step of 0.005 a leaves a residual of the order of the weight),
+    the iteration never leaves the branch.  It stops when the parameter moves
+    by at most ``ptol`` (relative to ``max(1, |p|)``); near the fold the
+    parameter is quadratic in ``c``, so it is then known to about ``ptol``
+    squared over the secant's step.  The null vector, ``sigma`` and the fold
+    coefficient ``a`` come from the fold system's linearisation there.
+
+    Parameters
+    ----------
+    problem : Problem
+    u, p : ndarray
+        An equilibrium (or a point close to the branch) near the fold.
+    param : int or str
+    v : ndarray
+        Approximate null vector (e.g. the branch's direction there).
+    tol : Tolerances
+        Of the section solves.
+    ptol : float
+    max_iterations : int
+    check_inertia : bool
+        As in :func:`locate_fold`.
+
+    Returns
+    -------
+    (FoldPoint or None, NewtonResult)
+
+    Examples
+    --------
+    The softening spring ``u - u^3 / 3 = lam`` turns at ``lam = 2/3``:
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u - u**3 / 3 - p[0],
+    ...                     lambda u, p: np.diag(1 - u**2), ("lam",))
+    >>> f, _ = fold_on_branch(P, np.array([0.8]), np.array([0.63]), "lam", np.ones(1))
+    >>> round(f.value, 12), round(float(f.u[0]), 6), f.side
+    (0.666666666667, 1.0, -1)
+    """
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start = counter.stats()
+    p = np.array(p, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    v = np.asarray(v, dtype=float)
+    n = np.sqrt(counter.inner(v, v))
+    if not (n > 0 and np.isfinite(n)):
+        raise ParameterError("v must be a non-zero vector")
+    v = v / n
+    zero = np.zeros_like(p)
+
+    def on_section(uu, pp, c):
+        """The equilibrium on the section ``<v, u> = c`` from ``(uu, pp)``, and
+        the branch's tangent there with ``<v, t_u> = 1``: ``(result, t_u, dp/dc)``."""
+        res = equilibrium_on_section(counter, uu, pp, i, (v, zero, c), tol=tol)
+        if not res.converged:
+            return None
+        try:  # [[K, R_p], [v^T, 0]] t = [0; 1]
+            tu, tq = res.extra.solve(np.zeros(len(res.u)), [1.0])
+        except EngineFailure:
+            return None
+        return res, tu, float(tq[0])
+
+    def failed(reason, last=None):
+        stats = counter.stats() - start
+        return None, NewtonResult(u if last is None else last.u, p if last is None else last.p,
+                                  False, stats.newton_iterations, reason, (), None, stats)
+
+    def along(pt, c):
+        """From the point ``pt`` to the section ``c``, predicted along the
+        branch's tangent there, halved (three times at most) where the section
+        solve fails: ``(point, c reached)`` or None."""
+        res, tu, g = pt
+        c0 = counter.inner(v, res.u)
+        for _ in range(4):
+            pp = res.p.copy()
+            pp[i] += (c - c0) * g
+            nxt = on_section(res.u + (c - c0) * tu, pp, c)
+            if nxt is not None:
+                return nxt, c
+            c = 0.5 * (c + c0)
+        return None
+
+    c0 = counter.inner(v, u)
+    a_pt = on_section(np.array(u, dtype=float), p, c0)
+    if a_pt is None:
+        return failed("the equilibrium on the first section did not converge")
+    # the second section: a small move along the branch, for the first secant
+    h = 1e-3 * max(1.0, counter.correction_norm(a_pt[0].u))
+    step = along(a_pt, c0 + h)
+    if step is None:
+        return failed("the equilibrium on the second section did not converge", a_pt[0])
+    b_pt, cb = step
+    ca = c0
+    for _ in range(max_iterations):
+        ga, gb = a_pt[2], b_pt[2]
+        if gb == ga:
+            break
+        c_new = cb - gb * (cb - ca) / (gb - ga)
+        # no extrapolation beyond twice the last secant step (the secant of a
+        # curved dp/dc far from the fold can overshoot)
+        c_new = cb + float(np.clip(c_new - cb, -2 * abs(cb - ca), 2 * abs(cb - ca)))
+        nearer = b_pt if abs(c_new - cb) <= abs(c_new - ca) else a_pt
+        step = along(nearer, c_new)
+        if step is None:
+            return failed("a section solve of the secant did not converge", b_pt[0])
+        n_pt, c_new = step
+        moved = abs(float(n_pt[0].p[i] - b_pt[0].p[i]))
+        a_pt, ca, b_pt, cb = b_pt, cb, n_pt, c_new
+        if moved <= ptol * max(1.0, abs(float(b_pt[0].p[i]))):
+            break
+    else:
+        return failed(f"no convergence of the secant in {max_iterations} iterations", b_pt[0])
+    rb = b_pt[0]
+    system = FoldSystem(counter, v, [i])
+    try:
+        system(rb.u, rb.p)
+    except EngineFailure as err:
+        return failed(f"the fold system at the located point: {err}", rb)
+    stats = counter.stats() - start
+    out = NewtonResult(rb.u, rb.p, True, stats.newton_iterations, "", (), None, stats,
+                       system.last)
+    fold = fold_point(counter, out, i, check_inertia, 1e-4, stats)
+    return fold, out

@@ -1,181 +1,411 @@
-"""Natural continuation in a load parameter with adaptive steps: the load paths' driver.
+"""Continuation in a load parameter up to its full value: the load paths' driver.
 
-A load parameter ``lam`` runs from a start to an end (``1``, the full load);
-each step is attempted by the caller (predict, correct with
-:func:`~skfem_sheet.engine.corrector.correct`, verify) and this driver only
-controls the steps: they grow after easy corrections, shrink a little after
-hard ones, are halved after a failure, and below ``min_step`` the ramp fails.
-Where the steps have been cut below ``snap_step`` the followed branch is taken
-to end at a fold: the next attempts are told to *snap* (e.g. settle by
-:func:`~skfem_sheet.engine.transient.pseudo_transient` onto another branch)
-until one succeeds.
+:func:`ramp` follows the branch of equilibria through a start point as one
+parameter (the load) goes to ``stop``, and ends either there or at the first
+*turning point* of the load, located:
 
-The driver knows nothing of the problem: what an attempt does is the caller's.
+- **steps**: natural (the parameter stepped, Newton at fixed parameter) where
+  the branch is gentle, pseudo-arclength (the equilibrium equations bordered
+  by the arclength condition) where it is steep; the switch is the slope of
+  the branch's direction, natural while its parameter component is at least
+  ``1/sqrt(2)`` (the branch is closer to the parameter axis than to the state
+  space, in the problem's arclength norm), as BifurcationKit's ``AutoSwitch``
+  does; a natural step whose Newton fails is retried as a pseudo-arclength
+  one (Newton at fixed parameter fails ahead of a fold).  The direction is
+  the unit tangent at the first point and then the secant of the last two
+  points (measured on the sheet's load ramps: the tangent from the
+  factorisation a corrector ends with, which is not at the converged state,
+  let steps jump over folds the secant's steps met).
+- **acceptance** (the one step rule,
+  :class:`~skfem_sheet.engine.steps.StepRule`): the corrector converged
+  (:class:`~skfem_sheet.engine.corrector.ChordTest`, at least two
+  linearisations), its distance from the prediction is at most four times
+  the nominal one, and above the nominal one the *halving test*: the step of
+  half the length from the same point must land at most half as far (a
+  smooth branch: a quarter; a jump onto another branch: no nearer).  The
+  next step is chosen to land at the nominal distance (at most twice as
+  long, and not longer after a rejection or a correction that used more
+  than half of Newton's budget).
+- **turning points**: the parameter stops being monotone over three points
+  (the secant's parameter component changes sign), confirmed by the inertia
+  of the Hessian past the turn (one more negative eigenvalue; where the
+  problem reports inertia), and located on the branch by the minimally
+  augmented test function (:func:`~skfem_sheet.engine.fold.fold_on_branch`,
+  else Newton on the fold system, :func:`~skfem_sheet.engine.fold.locate_fold`).
+  A step across which the inertia changes *without* a turn is rejected (a
+  jump onto another branch, or a bifurcation, which the step shrinks to
+  expose).  A steep branch with no turning point is followed, whatever its
+  slope.
+
+The driver ends at the fold: what happens there (a snap onto another branch)
+is the caller's.
 
 Examples
 --------
-A branch that ends at ``lam = 0.6``; beyond it a snap lands on the other one:
+A spring that softens, ``R = u - u^3/3 - lam``, turns at ``lam = 2/3``
+(``u = 1``); from ``lam = 0`` the ramp to ``lam = 1`` ends there:
 
->>> branch = ["first"]
->>> def attempt(lam, lam_new, snapping):
-...     if snapping:
-...         branch[0] = "second"
-...     ok = lam_new <= 0.6 or branch[0] == "second"
-...     return Attempt(ok, 2 if ok else 5, "" if ok else "no equilibrium")
->>> out = ramp(0.0, RampControl(snap_step=0.05), attempt)
->>> out.converged, out.lam, [round(x, 4) for x in out.snapped], out.rejected
-(True, 1.0, [0.625], 6)
+>>> from skfem_sheet.engine import FunctionProblem
+>>> P = FunctionProblem(lambda u, p: u - u**3 / 3 - p[0],
+...                     lambda u, p: np.diag(1 - u**2), ("lam",))
+>>> b = ramp(P, np.zeros(1), np.zeros(1), "lam", 1.0, rule=StepRule(delta=0.01))
+>>> b.completed, round(b.fold.value, 10), round(float(b.fold.u[0]), 6)
+(False, 0.6666666667, 1.0)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import logging
+from dataclasses import replace
+
+import numpy as np
 
 from ..params import ParameterError, check_range
+from .branch import Branch, BranchPoint
+from .corrector import (
+    DEFAULT_TOLERANCES,
+    ChordTest,
+    NewtonResult,
+    Tolerances,
+    correct,
+    plain_linearization,
+)
+from .fold import fold_on_branch, locate_fold, section_linearization, unit_tangent
+from .protocol import Counting, EngineFailure, Stats, parameter_index
+from .steps import StepRule, corrector_distance
 
-__all__ = ["Attempt", "RampControl", "RampOutcome", "growth", "ramp"]
+__all__ = ["NATURAL_SLOPE", "ramp"]
 
+log = logging.getLogger(__name__)
 
-@dataclass(frozen=True)
-class RampControl:
-    """Adaptive step control of :func:`ramp` (fractions of the range).
-
-    Attributes
-    ----------
-    initial_step, min_step, max_step : float
-        First step; below ``min_step`` the ramp fails; the largest step.
-    grow : float
-        Growth factor after an easy step (at most ``easy_iterations``).
-    easy_iterations : int
-    snap_step : float or None
-        Cut below this, the next attempts snap (``None``: never).
-    snap_at_failure : bool
-        The first snapping attempt is made at the load that has just failed
-        (beyond the fold, where the snap must happen), not at half the step
-        (which may still be short of the fold and cost a settle that does
-        not snap); later snapping attempts halve the step as usual.
-    """
-
-    initial_step: float = 0.25
-    min_step: float = 1e-3
-    max_step: float = 1.0
-    grow: float = 2.0
-    easy_iterations: int = 2
-    snap_step: float | None = None
-    snap_at_failure: bool = True
-
-    def __post_init__(self):
-        check_range("initial_step", self.initial_step, 0, 1, lo_open=True)
-        check_range("min_step", self.min_step, 0, self.initial_step, lo_open=True)
-        check_range("max_step", self.max_step, self.initial_step, 1)
-        check_range("grow", self.grow, 1, 10)
-        if self.snap_step is not None and not self.snap_step > 0:
-            raise ParameterError(f"snap_step must be > 0 or None, got {self.snap_step!r}")
+#: Natural steps while the tangent's parameter component is at least this
+#: (a branch closer to the parameter axis than to the state space).
+NATURAL_SLOPE = 1.0 / np.sqrt(2.0)
 
 
-@dataclass(frozen=True)
-class Attempt:
-    """Outcome of one attempted step.
-
-    Attributes
-    ----------
-    converged : bool
-        The step is accepted.
-    iterations : int
-        Corrector iterations (they set the next step).
-    reason : str
-        Why not converged.
-    stop : str
-        If not empty, the ramp ends here with this reason (e.g. a verified
-        end state that is unstable).
-    """
-
-    converged: bool
-    iterations: int
-    reason: str = ""
-    stop: str = ""
+def _first(counter, u0, p0, tol, start):
+    if start is not None:
+        u, fact = start
+        return NewtonResult(np.array(u, dtype=float), np.array(p0, dtype=float), True, 0, "",
+                            (), fact, Stats())
+    return correct(counter, np.array(u0, dtype=float), np.array(p0, dtype=float),
+                   plain_linearization(counter), tol, converged=ChordTest(counter, tol))
 
 
-@dataclass(frozen=True)
-class RampOutcome:
-    """Where :func:`ramp` ended and why.
+def _predict(points, i, at, value, t):
+    """Prediction ``(u, p)`` along the direction ``t`` of the last point (the
+    unit tangent at the first point, then the secant of the last two), at
+    the arclength ``value`` from it (``at="s"``) or at the parameter
+    ``value`` (``at="p"``).  Its error is second order in the step.
 
-    Attributes
-    ----------
-    lam : float
-        The last accepted load.
-    converged : bool
-        The end was reached.
-    reason : str
-        "step below min_step" or an attempt's ``stop`` ("" if converged).
-    last_failure : str
-        The reason of the last failed attempt.
-    steps, rejected : int
-        Accepted and rejected attempts.
-    snapped : tuple
-        Loads of the accepted steps that were snaps.
-    """
-
-    lam: float
-    converged: bool
-    reason: str = ""
-    last_failure: str = ""
-    steps: int = 0
-    rejected: int = 0
-    snapped: tuple = field(default=())
+    (An interpolant through three points, of third order, was measured on
+    the gravity ramp of a long sheet: its extrapolation overshoots where the
+    branch bends, and Newton failures cost more than it saves.)"""
+    last = points[-1]
+    h = value - (last.s if at == "s" else last.p[i])
+    if at == "s":
+        du, dq = h * t[0], h * t[1]
+    else:
+        du, dq = h * t[0] / t[1], h
+    p = last.p.copy()
+    p[i] += dq
+    return last.u + du, p
 
 
-def growth(iterations: int, control: RampControl) -> float:
-    """Step-size factor after a converged step: grow after easy corrections,
-    shrink a little after hard ones (aiming at ``easy_iterations``)."""
-    if iterations <= control.easy_iterations:
-        return control.grow
-    if iterations == control.easy_iterations + 1:
-        return 1.0 + 0.5 * (control.grow - 1.0)
-    if iterations == control.easy_iterations + 2:
-        return 1.0
-    return 0.7
+def _natural(counter, u, u_pred, p_pred, tol):
+    """Newton at the prediction's parameter from the prediction."""
+    res = correct(counter, u_pred, p_pred, plain_linearization(counter, reference=u), tol,
+                  converged=ChordTest(counter, tol, start=u_pred))
+    return res
 
 
-def ramp(lam: float, control: RampControl, attempt, *, end: float = 1.0) -> RampOutcome:
-    """Natural continuation from ``lam`` to ``end`` with adaptive steps.
+def _arclength(counter, u, p, u_pred, p_pred, i, tol):
+    """The equilibrium on the hyperplane through the prediction normal to the
+    chord from the last point ``(u, p)`` to it."""
+    du, dq = u_pred - u, float(p_pred[i] - p[i])
+    h = float(np.sqrt(counter.inner(du, du) + dq**2))
+    t_u, t_p = du / h, dq / h
+
+    def distance(uu, pp):
+        return counter.inner(t_u, uu - u) + t_p * (pp[i] - p[i]) - h
+
+    return correct(counter, u_pred, p_pred,
+                   section_linearization(counter, i, t_u, t_p, distance, reference=u),
+                   tol, converged=ChordTest(counter, tol, distance, max(abs(t_p), 1e-12),
+                                            start=u_pred))
+
+
+def _hessian_inertia(counter, u, p):
+    """Negative eigenvalues of the Hessian at ``(u, p)`` (one factorisation)."""
+    try:
+        return counter.factorize(counter.jacobian(u, p)).inertia()
+    except EngineFailure:
+        return None
+
+
+def _turn_estimate(counter, i, nodes):
+    """Where the parameter turns on the branch through ``nodes`` (the last
+    points, ``(s, u, p_i)``, two or three, the last past the turn): the
+    vertex ``s*`` of the parabola of ``p_i(s)`` through three of them (the
+    midpoint of the last two with two), and the state and unit direction of
+    the interpolant of ``u(s)`` there."""
+    s = np.array([x[0] for x in nodes])
+    q = np.array([x[2] for x in nodes])
+    U = [x[1] for x in nodes]
+    s_star = 0.5 * (s[-2] + s[-1])
+    if len(nodes) == 3:
+        c = np.polyfit(s, q, 2)
+        if c[0] != 0:
+            vertex = -c[1] / (2 * c[0])
+            if s[0] <= vertex <= s[-1]:
+                s_star = float(vertex)
+    # Lagrange weights and their derivatives at s*
+    n = len(s)
+    w, dw = np.ones(n), np.zeros(n)
+    for a in range(n):
+        others = [b for b in range(n) if b != a]
+        den = np.prod([s[a] - s[b] for b in others])
+        w[a] = np.prod([s_star - s[b] for b in others]) / den
+        dw[a] = sum(np.prod([s_star - s[b] for b in others if b != c]) for c in others) / den
+    u = sum(wk * uk for wk, uk in zip(w, U))
+    p = float(w @ q)
+    du = sum(wk * uk for wk, uk in zip(dw, U))
+    return u, p, du
+
+
+def _locate(counter, i, p_ref, nodes, tol, check_inertia):
+    """The fold where the parameter turns among ``nodes`` (see
+    :func:`_turn_estimate`): on the branch from the interpolated turning
+    point, along the branch's direction there (the approximate null vector;
+    :func:`~skfem_sheet.engine.fold.fold_on_branch`); if that fails, by Newton
+    on the minimally augmented system from the last point before the turn,
+    approaching the fold along the branch where the fold system's basin is
+    smaller than the distance to it (:func:`~skfem_sheet.engine.fold.locate_fold`)."""
+    u_star, p_star, du = _turn_estimate(counter, i, nodes)
+    p = p_ref.copy()
+    p[i] = p_star
+    if counter.inner(du, du) > 0:
+        fold, _ = fold_on_branch(counter, u_star, p, i, du, tol=tol, check_inertia=check_inertia)
+        if fold is not None:
+            return fold
+    s0, u0, q0 = nodes[-2]
+    p0 = p_ref.copy()
+    p0[i] = q0
+    res = correct(counter, u0, p0, plain_linearization(counter), tol)
+    if not res.converged:
+        return None
+    fold, _ = locate_fold(counter, res.u, res.p, i, v0=du, tol=tol,
+                          check_inertia=check_inertia, approach=8)
+    return fold
+
+
+def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
+         tol: Tolerances = DEFAULT_TOLERANCES, end_tol: Tolerances | None = None,
+         start=None, on_step=None, progress=None, max_points: int = 1000,
+         check_inertia: bool = False) -> Branch:
+    """Follow the branch through ``(u0, p0)`` until ``p[param]`` reaches
+    ``stop`` or the parameter turns (a fold, located).
 
     Parameters
     ----------
-    lam : float
-        Start (already an equilibrium).
-    control : RampControl
-    attempt : callable(lam, lam_new, snapping) -> Attempt
-        Try the step from the accepted ``lam`` to ``lam_new``; ``snapping``
-        says that the steps were cut below ``snap_step`` (the branch is taken
-        to end: leave it).
-    end : float
+    problem : Problem
+    u0, p0 : ndarray
+        Start (corrected first at fixed parameters, unless ``start``).
+    param : int or str
+        The load parameter.
+    stop : float
+        Its end value (either direction).
+    rule : StepRule
+        Step lengths and acceptance (the one rule of the drivers).
+    tol : Tolerances
+        Newton's tolerances at the points on the way.
+    end_tol : Tolerances, optional
+        The end point (``p[param] = stop``), reached with ``tol`` like every
+        point, is then corrected to these (from there: one or two Newton
+        iterations), and a fold is located to them (default ``tol``).
+    start : (u, factorization), optional
+        ``(u0, p0)`` is already an equilibrium, with this factorised tangent.
+    on_step : callable(point, result), optional
+        Called with every accepted point after the first.
+    progress : callable(value), optional
+    max_points : int
+    check_inertia : bool
+        Also count the negative eigenvalues on both sides of a located fold
+        (two factorisations; :attr:`FoldPoint.crossing`).
 
     Returns
     -------
-    RampOutcome
+    Branch
+        ``completed`` if ``stop`` was reached; else ``fold`` is the located
+        turning point (``reason`` says where), or ``reason`` says why the
+        branch could not be followed (a step below ``rule.minimum``, a
+        turning point that could not be located, an inertia change without
+        a turn).  ``points`` are the accepted points (``tangent_p`` the
+        parameter component of the direction there; ``negative_eigenvalues``
+        where the Hessian's inertia was read), ``rejected`` the rejected steps.
     """
-    step, snapping = control.initial_step, False
-    steps = rejected = 0
-    snapped, last = [], ""
-    while lam < end:
-        lam_new = min(end, lam + step)
-        res = attempt(lam, lam_new, snapping)
-        if res.stop:
-            return RampOutcome(lam, False, res.stop, last, steps, rejected, tuple(snapped))
-        if res.converged:
-            if snapping:
-                snapped.append(lam_new)
-                snapping = False
-            lam, steps = lam_new, steps + 1
-            step = min(control.max_step, step * growth(res.iterations, control))
+    counter = problem if isinstance(problem, Counting) else Counting(problem)
+    start_stats = counter.stats()
+    p = np.array(p0, dtype=float)
+    i = parameter_index(counter, param, len(p))
+    stop = float(stop)
+    if not np.isfinite(stop):
+        raise ParameterError(f"stop must be finite, got {stop!r}")
+    max_points = int(check_range("max_points", max_points, 1, None))
+    end_tol = tol if end_tol is None else end_tol
+    direction = 1.0 if stop >= p[i] else -1.0
+    points, rejected = [], 0
+
+    def finish(completed=False, reason="", folds=()):
+        return Branch(tuple(points), i, tuple(folds), completed, reason, (),
+                      counter.stats() - start_stats, rejected)
+
+    res = _first(counter, u0, p, tol, start)
+    if not res.converged:
+        return finish(reason=f"the first point did not converge: {res.reason}")
+    try:
+        t = unit_tangent(counter, res.factorization.solve(-counter.dresidual(res.u, res.p, i)),
+                         1.0)
+    except EngineFailure as err:
+        return finish(reason=f"tangent at the first point: {err}")
+    if t[1] * direction < 0:
+        t = (-t[0], -t[1])
+    k = res.factorization.inertia()  # of the Hessian along the branch (None: not known)
+    points.append(BranchPoint(res.p.copy(), res.u, k, res.iterations, t[1], 0.0))
+
+    def attempt(h, natural_ok=True):
+        """A step of length ``h`` from the last point: ``(result, distance,
+        natural)`` (distance None if Newton failed).  With ``natural_ok``
+        False, pseudo-arclength also where the branch is gentle (Newton at
+        fixed parameter fails ahead of a fold that the slope did not show)."""
+        u, p = points[-1].u, points[-1].p
+        remaining = (stop - p[i]) * direction
+        slope = abs(t[1])
+        natural = h * slope >= remaining or (natural_ok and slope >= NATURAL_SLOPE)
+        if natural:
+            value = p[i] + direction * min(h * slope, remaining)
+            u_pred, p_pred = _predict(points, i, "p", value, t)
+            res = _natural(counter, u, u_pred, p_pred, tol)
+        else:
+            u_pred, p_pred = _predict(points, i, "s", points[-1].s + h, t)
+            res = _arclength(counter, u, p, u_pred, p_pred, i, tol)
+            if res.converged and (stop - res.p[i]) * direction < 0:
+                # the branch passes the end within the step: land on the end
+                # from the interpolation between the two points
+                a = (stop - p[i]) / (res.p[i] - p[i])
+                u_pred, p_pred = u + a * (res.u - u), res.p.copy()
+                p_pred[i] = stop
+                res = _natural(counter, u, u_pred, p_pred, tol)
+        dist = corrector_distance(counter, res, u_pred, p_pred) if res.converged else None
+        log.debug("step h=%.4g (%s, slope %.3g): p %.6g -> %.6g, converged %s, distance %s, "
+                  "%d iterations %s", h, "natural" if natural else "arclength", slope, p[i],
+                  res.p[i], res.converged, dist, res.iterations, res.reason)
+        return res, dist, natural
+
+    def examine(res):
+        """The checks of a point on the branch after the last one: ``("",
+        point data)`` to accept it, ``("fold", FoldPoint or None)`` where the
+        parameter turned (one eigenvalue crossing), or ``(why, None)``."""
+        nonlocal k
+        u, p = points[-1].u, points[-1].p
+        du, dq = res.u - u, float(res.p[i] - p[i])
+        chord = float(np.sqrt(counter.inner(du, du) + dq**2))
+        turned = dq * direction <= 0
+        k_new = res.factorization.inertia()
+        if turned or (k is not None and k_new is not None and k_new != k):
+            k_new = _hessian_inertia(counter, res.u, res.p)  # at the point itself
+        if turned and (k is None or k_new is None or k_new == k + 1):
+            nodes = [(pt.s, pt.u, float(pt.p[i])) for pt in points[-2:]]
+            nodes.append((points[-1].s + chord, res.u, float(res.p[i])))
+            f0 = counter.stats().factorizations
+            fold = _locate(counter, i, p, nodes, end_tol, check_inertia)
+            log.debug("fold located with %d factorisations: %s",
+                      counter.stats().factorizations - f0, None if fold is None else fold.value)
+            if fold is not None and fold.crossing is None:
+                fold = replace(fold, crossing=(k, k_new))
+            return "fold", fold
+        if turned:
+            return (f"the parameter turned but the inertia went from {k} to {k_new} "
+                    f"(not one eigenvalue crossing)"), None
+        if k is not None and k_new is not None and k_new != k:
+            return f"the inertia changed from {k} to {k_new} without a turning point", None
+        return "", (du / chord, dq / chord, chord, k_new)  # the secant
+
+    def accept(res, data, distance):
+        nonlocal t, k
+        t_u, t_p, chord, k_new = data
+        if end_tol is not tol and (stop - res.p[i]) * direction <= 1e-12 * max(1.0, abs(stop)):
+            # the end point to the end tolerance, from the point landed there
+            fin = correct(counter, res.u, res.p, plain_linearization(counter), end_tol,
+                          converged=None)
+            if not fin.converged:
+                return f"the end point did not converge to the end tolerance: {fin.reason}"
+            res = replace(fin, iterations=res.iterations + fin.iterations)
+        t = (t_u, t_p)
+        if k is None:
+            k = k_new
+        points.append(BranchPoint(res.p.copy(), res.u, k_new, res.iterations, t_p,
+                                  points[-1].s + chord, distance))
+        if on_step is not None:
+            on_step(points[-1], res)
+        if progress is not None:
+            progress(float(res.p[i]))
+        return ""
+
+    h, retried, candidate, natural_ok = rule.initial, False, None, True
+    while True:
+        if (stop - points[-1].p[i]) * direction <= 1e-12 * max(1.0, abs(stop)):
+            return finish(completed=True)
+        if len(points) >= max_points:
+            return finish(reason="max_points")
+        res, dist, natural = candidate if candidate is not None else attempt(h, natural_ok)
+        candidate = None
+        queue, why = [], ""
+        dists = {}
+        if dist is None:
+            why = f"Newton: {res.reason}"
+            natural_ok = natural_ok and not natural  # retried as pseudo-arclength
+        elif rule.rejects(dist):
+            why = f"corrector distance {dist / rule.delta:.3g} times the nominal one"
+        elif dist > rule.delta:
+            # the halving test, where the distance is above nominal: on the
+            # branch the distance of the half step falls (fourfold, at least
+            # twofold); after a jump it does not.  (Measured: judging the
+            # distance against the one the last step predicts for this length
+            # instead lets a step of 0.21 jump over the pop-up fold of L
+            # 1.073, b 0.81, a/R 5.17 gravity-first at hmax 0.1, distance 0.086
+            # where 0.054 was predicted.)
+            half = attempt(0.5 * h, natural_ok)
+            if half[1] is not None and half[1] <= 0.5 * dist:
+                queue = [half[0], res]
+                dists = {id(half[0]): half[1]}
+            else:
+                why = (f"the corrector distance {dist:.3g} did not fall when the step was "
+                       f"halved (a jump onto another branch)")
+                candidate = half if half[1] is not None else None
+        else:
+            queue = [res]
+        for item in queue:
+            what, data = examine(item)
+            if what == "fold":
+                if data is None:
+                    return finish(reason=f"the parameter turns after {points[-1].p[i]:.6g}, "
+                                  f"but the fold system did not converge")
+                return finish(reason=f"fold at {data.value:.10g}", folds=(data,))
+            why = what or accept(item, data, dists.get(id(item), dist))
+            if why:
+                break
+        if why:
+            rejected += 1
+            retried = True
+            h *= 0.5
+            if h < rule.minimum:
+                return finish(reason=f"step below {rule.minimum:g} at p = "
+                              f"{points[-1].p[i]:.6g} ({why})")
             continue
-        rejected, last = rejected + 1, res.reason
-        step *= 0.5
-        if control.snap_step is not None and not snapping and step < control.snap_step:
-            snapping = True
-            if control.snap_at_failure:
-                step *= 2.0  # retry the failed load, now snapping
-        elif step < control.min_step:
-            return RampOutcome(lam, False, "step below min_step", last, steps, rejected,
-                               tuple(snapped))
-    return RampOutcome(lam, True, "", last, steps, rejected, tuple(snapped))
+        # the next step does not grow after a rejection (this one was just
+        # found too long), nor after a correction that used more than half of
+        # Newton's budget (the step is at the edge of Newton's basin)
+        h_next = rule.next_step(h, dist)
+        if retried or queue[-1].iterations > tol.max_iterations // 2:
+            h_next = min(h, h_next)
+        h, retried, natural_ok = h_next, False, True

@@ -5,6 +5,9 @@ for all but the first two)::
 
     residual(u, p)          -> ndarray (n,)      R(u, p); non-finite = inadmissible state
     jacobian(u, p)          -> matrix (n, n)     dR/du, anything with ``@`` (dense or sparse)
+    newton_jacobian(u, p, previous) -> matrix    optional: the matrix of Newton corrections
+                                                 (default: jacobian; ``previous`` the iterate
+                                                 before ``u`` in the same correction)
     factorize(J)            -> Factorization     solve(b), inertia()
     dresidual(u, p, i)      -> ndarray (n,)      dR/dp_i (default: central difference)
     dual(a)                 -> ndarray (n,)      the vector c with c . b = <a, b>
@@ -270,6 +273,17 @@ class Counting:
     def jacobian(self, u, p):
         self.j += 1
         return self.problem.jacobian(u, p)
+
+    def newton_jacobian(self, u, p, previous):
+        """The matrix of a Newton correction at ``u`` (``previous``: the
+        iterate before it in the same correction, None at the first): the
+        problem's ``newton_jacobian`` if it has one (e.g. a linearisation
+        that converges faster), else :meth:`jacobian`."""
+        own = getattr(self.problem, "newton_jacobian", None)
+        if own is None:
+            return self.jacobian(u, p)
+        self.j += 1
+        return own(u, p, previous)
 
     def factorize(self, J):
         self.f += 1

@@ -8,7 +8,7 @@ The "projected exact value" is the least-squares
 ``d = d_inf + A h^2 + B h^3`` (paper quality; quick: ``d_inf + A h^2``, its
 meshes are too coarse for two terms) over the family meshes with ``h <=
 figS1_fit_max_h`` (the paper's order 2 fixed; the recorded free-order fit,
-``benchmarks/results/convergence_fit_L1.8_aR5.txt``, finds p = 1.72 +- 0.41 and
+``benchmarks/results/accuracy/convergence_fit_L1.8_aR5.txt``, finds p = 1.72 +- 0.41 and
 d_inf within 3e-5 of it), drawn with a +-1% band (the caption's claim).  The
 quick meshes (h >= 0.08) are before the asymptotic range (the recorded error
 changes sign near h = 0.07-0.09), so the quick projection is only indicative.
@@ -16,11 +16,11 @@ changes sign near h = 0.07-0.09), so the quick projection is only indicative.
 Quick: bases 0.24, 0.2, 0.16 with refine 0, 1 (minutes).  Paper: bases 0.16,
 0.14, 0.12 with refine 0 to 2 (the recorded study: hours, 7 GB at the finest);
 :func:`seed_from_benchmarks` fills the paper cache from the recorded runs
-(``benchmarks/results/convergence_nested*_L1.8_aR5.json``) instead.
+(``benchmarks/results/accuracy/convergence_nested*_L1.8_aR5.json``) instead.
 
 Panel (b), if ``data_dir/manufactured.json`` exists (the JSON written by
 ``benchmarks/manufactured.py --json``, e.g. the recorded
-``benchmarks/results/manufactured.json``): the manufactured-solution errors
+``benchmarks/results/accuracy/manufactured.json``): the manufactured-solution errors
 against h with their fitted rates.
 
 Each solve is cached in ``data_dir/figS1-<quality>/*.csv``.

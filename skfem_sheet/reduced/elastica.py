@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_bvp
 
-from skfem_sheet.engine.loadpath import Attempt, RampControl, ramp
 from skfem_sheet.params import check_integer, check_range
 from skfem_sheet.reduced._common import (
     as_sheet,
@@ -153,22 +152,24 @@ def elastica(sheet, tol: float = 1e-9, n_nodes: int = 101, max_nodes: int = 1000
     n_steps = max(1, int(np.ceil(G / 4.0)))
     state = {"sol": None, "s": s, "y": y}
 
-    def attempt(done, load, snapping):
+    def attempt(load):
         fun, bc = _system(sheet, load)
         trial = solve_bvp(fun, bc, state["s"], state["y"], tol=tol, max_nodes=max_nodes)
         if trial.status == 0 and _physical(trial.y[0]):
             state.update(sol=trial, s=trial.x, y=trial.y)
-            return Attempt(True, 0)  # 0: "easy", so the (constant) step is kept
-        return Attempt(False, 0, trial.message)
+            return True
+        return False
 
-    # the engine's load ramp: equal steps 1/n_steps, halved after a failure;
-    # it gives up once a step would be at most 1e-4 of the load
+    # equal load steps 1/n_steps from the straight sheet, halved after a
+    # failure; the ramp gives up once a step would be below 1e-4 of the load
     step = 1.0 / n_steps
-    min_step = np.nextafter(1e-4, np.inf)
     done = 0.0
-    if step >= min_step:
-        done = ramp(0.0, RampControl(initial_step=step, min_step=min_step, max_step=step,
-                                     grow=1.0), attempt).lam
+    while done < 1.0 and step >= 1e-4:
+        load = min(1.0, done + step)
+        if attempt(load):
+            done = load
+        else:
+            step *= 0.5
     sol, s, y = state["sol"], state["s"], state["y"]
     converged = True
     if sol is None or done < 1.0:

@@ -1,0 +1,392 @@
+"""How :func:`~skfem_sheet.solve.solve` reaches full load on its mesh: the start strategies.
+
+A strategy is a small frozen object with a ``reach(job)`` method that returns
+a :class:`Reached` (the end state at full load and its history):
+
+:class:`PathStart`
+    the load path (:func:`~skfem_sheet.continuation.follow_path`) on the mesh
+    of the solve;
+:class:`CoarseStart`
+    the load path on a coarse mesh, carried to the mesh of the solve by the
+    same rule that decides a snap there: every fold the coarse path located
+    is transferred (state and null vector) and located again on the fine mesh
+    with the minimally augmented test function
+    (:func:`~skfem_sheet.engine.fold.fold_on_branch`, a few factorisations).
+    A fine fold inside its phase: the fine sheet snaps there too (its fold
+    load and deflections are the fine mesh's).  A fine fold beyond the phase's
+    full load: it does not, and the fine branch before the fold is finished
+    at full load of that phase (predicted from the fold's quadratic normal
+    form, solved by Newton) and the load path goes on from there on the fine
+    mesh.  Without (more) folds the coarse end state is transferred and
+    finished by Newton at full load, accepted by the load path's step rule
+    (its corrector distance at most four times the nominal one: it stayed on
+    the coarse path's branch) and verified stable; otherwise the load path
+    runs on the fine mesh instead (the record says why).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field, replace
+from typing import Callable, ClassVar
+
+import numpy as np
+
+from .analyses.observables import tip_deflection
+from .analyses.transfer import transfer
+from .continuation import (
+    Snap,
+    StepOptions,
+    end_state_verdict,
+    follow_path,
+    load_phases,
+    newton_tolerances,
+    snap_from_fold,
+)
+from .engine.corrector import correct, plain_linearization
+from .engine.fold import fold_on_branch, locate_fold
+from .engine.protocol import Counting, EngineFailure
+from .linalg import make_linear_solver
+from .newton import NewtonOptions, Stats, newton
+from .params import ParameterError, check_range
+from .result import StartRecord
+from .sheet_engine import LoadPhase, SheetLoadProblem
+
+log = logging.getLogger(__name__)
+
+__all__ = ["STARTS", "CoarseStart", "Job", "PathStart", "Reached", "make_start"]
+
+#: The names of the start strategies (``solve(start=...)``).
+STARTS = ("path", "coarse")
+
+
+@dataclass(frozen=True)
+class Job:
+    """What a start strategy is asked to do: the load path of one sheet on
+    its mesh, to full load.
+
+    Attributes
+    ----------
+    problem : SheetProblem
+        The sheet on the mesh of the solve.
+    path : str
+    kappa, gravity : float
+        Full load.
+    linear : linear-solver back-end (on ``problem``)
+    solver : str
+        Its name (a coarse mesh gets a solver of its own).
+    newton_options : NewtonOptions
+    step_options : StepOptions
+    stats : Stats
+        Counts the work on the mesh of the solve.
+    build : callable(hmax) -> SheetProblem
+        The sheet on another mesh (same layers rule, symmetry, quadrature).
+    report : callable(fraction)
+        Progress.
+    on_step : callable(problem, w, kappa, g) or None
+        Every accepted state on the mesh of the solve.
+    """
+
+    problem: object
+    path: str
+    kappa: float
+    gravity: float
+    linear: object
+    solver: str
+    newton_options: NewtonOptions
+    step_options: StepOptions
+    stats: Stats
+    build: Callable
+    report: Callable = field(default=lambda fraction: None)
+    on_step: object = None
+
+
+@dataclass(frozen=True)
+class Reached:
+    """How a strategy reached its end state: what the Result is made of."""
+
+    w: np.ndarray
+    kappa: float
+    g: float
+    steps: tuple
+    snaps: tuple
+    rejected_steps: int
+    stable: object
+    negative_eigenvalues: object
+    converged: bool = True
+    reason: str = ""
+    record: StartRecord = field(default_factory=StartRecord)
+
+    @classmethod
+    def of_path(cls, out, record=None, steps=(), snaps=(), rejected=0):
+        """The outcome of :func:`~skfem_sheet.continuation.follow_path`, after
+        the history ``steps``, ``snaps``, ``rejected`` (of a coarse path)."""
+        return cls(w=out.w, kappa=out.kappa, g=out.g, steps=tuple(steps) + tuple(out.steps),
+                   snaps=tuple(snaps) + tuple(out.snaps),
+                   rejected_steps=rejected + out.rejected_steps, stable=out.stable,
+                   negative_eigenvalues=out.negative_eigenvalues, converged=out.converged,
+                   reason=out.reason, record=record or StartRecord())
+
+
+@dataclass(frozen=True)
+class PathStart:
+    """The load path on the mesh of the solve, from the reference state.
+
+    Examples
+    --------
+    >>> PathStart().name
+    'path'
+    """
+
+    name: ClassVar[str] = "path"
+
+    def reach(self, job: Job, record: StartRecord | None = None) -> Reached:
+        out = follow_path(job.problem, job.path, job.kappa, job.linear,
+                          newton_options=job.newton_options, step_options=job.step_options,
+                          stats=job.stats, progress=job.report, on_step=job.on_step,
+                          gravity=job.gravity)
+        return Reached.of_path(out, record)
+
+
+@dataclass(frozen=True)
+class CoarseStart:
+    """The load path on the mesh ``hmax``, carried to the mesh of the solve
+    by its located folds (see the module).
+
+    Attributes
+    ----------
+    hmax : float
+        Mesh size of the coarse path.
+    min_coarsening : float
+        The coarse path runs only where ``hmax`` is at least this many times
+        the mesh size of the solve: a factorisation costs about the square
+        of the unknowns' ratio of the two meshes in 2D-like fill (the sheet is
+        thin), so closer meshes make the coarse path cost as much as the path
+        on the fine mesh (the load path runs there instead).  Measured: at
+        hmax 0.08 from 0.1 the sheet L 1.299, b 0.633, a/R 5.112 took 98
+        coarse + 38 fine Newton iterations against 75 for the path.
+
+    Examples
+    --------
+    >>> CoarseStart(hmax=0.1).name, CoarseStart(hmax=0.1).usable_for(0.03)
+    ('coarse', '')
+    """
+
+    hmax: float = 0.1
+    min_coarsening: float = 2.0
+    name: ClassVar[str] = "coarse"
+
+    def __post_init__(self):
+        check_range("coarse hmax", self.hmax, 0, None, lo_open=True)
+        check_range("min_coarsening", self.min_coarsening, 1, None)
+
+    def usable_for(self, hmax: float) -> str:
+        """Why the coarse path does not run for the mesh size ``hmax`` ("" if it does)."""
+        if self.hmax <= hmax:
+            return f"coarse_hmax {self.hmax:g} is not coarser than hmax {hmax:g}"
+        if self.hmax < self.min_coarsening * hmax:
+            return (f"coarse_hmax {self.hmax:g} is less than {self.min_coarsening:g} times "
+                    f"coarser than hmax {hmax:g}: the path on hmax costs about as much")
+        return ""
+
+    def reach(self, job: Job) -> Reached:
+        fine = job.problem
+        why = self.usable_for(float(fine.sheet_mesh.hmax))
+        if why:
+            return PathStart().reach(job, StartRecord(self.name, self.hmax, fallback=why))
+        cproblem = job.build(self.hmax)
+        clinear = make_linear_solver(job.solver)
+        if getattr(clinear, "needs_layout", False):
+            clinear.attach(cproblem.saddle_point_layout())
+        cstats = Stats()
+        coarse = follow_path(cproblem, job.path, job.kappa, clinear,
+                             newton_options=job.newton_options, step_options=job.step_options,
+                             stats=cstats, progress=lambda f: job.report(0.9 * f),
+                             gravity=job.gravity)
+
+        def record(fallback="", folds=()):
+            return StartRecord(self.name, self.hmax, cstats.factorizations,
+                               cstats.newton_iterations, fallback, tuple(folds))
+
+        def fall_back(why, folds=()):
+            return PathStart().reach(job, record(why, folds))
+
+        if not coarse.converged:
+            return fall_back(f"coarse path failed: {coarse.reason}")
+        phases = load_phases(job.path, job.kappa, job.gravity)
+        names = [name for name, _, _ in phases]
+        sheet = SheetLoadProblem(fine, job.linear, job.stats, job.newton_options)
+        tight = newton_tolerances(job.newton_options)
+        scale = max(1.0, fine.sheet.length)
+        snaps, seen = [], []
+        for fold in coarse.folds:
+            name = fold.snap.phase
+            iphase = names.index(name)
+            phase = LoadPhase(sheet, *phases[iphase][1:])
+            f0 = job.stats.factorizations
+            located = _fold_on_fine(cproblem, fold, sheet, phase, tight)
+            log.debug("coarse fold at %.6g located on the fine mesh at %s with %d factorisations",
+                      fold.snap.load, None if located is None else located.value,
+                      job.stats.factorizations - f0)
+            if located is None:
+                return fall_back(f"the coarse fold in the {name} phase at "
+                                 f"{fold.snap.load:.6g} was not located on hmax "
+                                 f"{fine.sheet_mesh.hmax:g}", seen)
+            lam = located.value
+            inside = lam <= 1.0
+            seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
+                         "snapped": inside})
+            if inside:
+                snap = _fine_snap(cproblem, fold, sheet, phase, located, job,
+                                  fold.snap.negative_eigenvalues)
+                if snap is None:
+                    return fall_back(f"the snap at the fold in the {name} phase at {lam:.6g} "
+                                     f"failed on hmax {fine.sheet_mesh.hmax:g}", seen)
+                snaps.append(snap)
+                log.debug("fine snap: %d factorisations with the location", job.stats.factorizations - f0)
+                continue
+            # the fine fold lies beyond this phase's full load: no snap there; the
+            # fine branch before the fold, at full load of the phase, and the load
+            # path on from it on the fine mesh
+            w = _before_fold(sheet, phase, located, tight)
+            if w is None:
+                return fall_back(f"the fine fold in the {name} phase lies beyond its full load "
+                                 f"(at {lam:.6g}), but the state before it at full load did not "
+                                 f"converge", seen)
+            steps = tuple(x for x in coarse.steps if names.index(x[0]) < iphase) + (
+                ("fine", 1.0, 0),)
+            if iphase == len(phases) - 1:
+                out = follow_path(fine, job.path, job.kappa, job.linear,
+                                  newton_options=job.newton_options,
+                                  step_options=job.step_options, stats=job.stats, w0=w,
+                                  resume=(name, 1.0), gravity=job.gravity)
+            else:
+                out = follow_path(fine, job.path, job.kappa, job.linear,
+                                  newton_options=job.newton_options,
+                                  step_options=job.step_options, stats=job.stats, w0=w,
+                                  resume=(names[iphase + 1], 0.0), on_step=job.on_step,
+                                  gravity=job.gravity)
+            if not out.converged:
+                return fall_back(f"the fine path after the fold in the {name} phase failed: "
+                                 f"{out.reason}", seen)
+            job.report(1.0)
+            return Reached.of_path(out, record("", seen), steps=steps, snaps=snaps,
+                                   rejected=coarse.rejected_steps)
+        # the coarse end state, finished on the fine mesh at full load
+        w0 = transfer(cproblem, coarse.w, fine)
+        w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
+        res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
+        if not res.converged:
+            return fall_back(f"fine Newton from the coarse end state failed: {res.reason}", seen)
+        moved = float(np.abs(res.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
+        if job.step_options.rule(scale).rejects(moved):
+            return fall_back(f"fine Newton moved {moved:.3g} from the coarse end state, more "
+                             f"than four times the load path's nominal corrector distance "
+                             f"(another branch)", seen)
+        stable, k = end_state_verdict(fine, job.linear, res.w, job.stats)
+        if stable is not True:
+            what = "unknown" if stable is None else f"unstable ({k} negative eigenvalue(s))"
+            return fall_back(f"fine end state {what}", seen)
+        if job.on_step is not None:
+            job.on_step(fine, res.w, coarse.kappa, coarse.g)
+        job.report(1.0)
+        return Reached(w=res.w, kappa=coarse.kappa, g=coarse.g,
+                       steps=tuple(coarse.steps) + (("fine", 1.0, res.iterations),),
+                       snaps=tuple(snaps), rejected_steps=coarse.rejected_steps,
+                       stable=stable, negative_eigenvalues=k, record=record("", seen))
+
+
+def make_start(start, coarse_hmax: float = 0.1):
+    """The strategy of ``solve(start=..., coarse_hmax=...)``: a strategy object
+    as it is, or one of the names :data:`STARTS`.
+
+    Examples
+    --------
+    >>> make_start("coarse", 0.12)
+    CoarseStart(hmax=0.12, min_coarsening=2.0)
+    >>> make_start(PathStart())
+    PathStart()
+    """
+    if isinstance(start, (PathStart, CoarseStart)):
+        return start
+    if start == "path":
+        return PathStart()
+    if start == "coarse":
+        return CoarseStart(hmax=check_range("coarse_hmax", coarse_hmax, 0, None, lo_open=True))
+    raise ParameterError(f"start must be one of {', '.join(STARTS)} or a start strategy "
+                         f"(PathStart, CoarseStart), got {start!r}")
+
+
+# -- the folds of a coarse path on the fine mesh -------------------------------------
+def _carried(cproblem, fold, fine):
+    """The coarse fold's state and null vector on ``fine``: ``(w, v_free)``."""
+    w = transfer(cproblem, fold.w, fine)
+    vc = np.zeros(cproblem.ndof)
+    vc[cproblem.free] = fold.v
+    v = transfer(cproblem, vc, fine)[fine.free]
+    return w, v
+
+
+def _fold_on_fine(cproblem, fold, sheet, phase, tol):
+    """The coarse ``fold`` located on the fine mesh of ``sheet`` (FoldPoint or None)."""
+    fine = sheet.problem
+    w, v = _carried(cproblem, fold, fine)
+    u = w[fine.free]
+    counter = Counting(phase)
+    p = np.array([fold.snap.load])
+    try:
+        located, _ = fold_on_branch(counter, u, p, 0, v, tol=tol)
+        if located is None:
+            located, _ = locate_fold(counter, u, p, 0, v0=v, tol=tol, approach=8)
+    except EngineFailure:
+        return None
+    return located
+
+
+def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
+    """The snap at the fine fold ``located``: landing on the coarse path's
+    landing state carried over and solved at the fine fold load (else a snap
+    settle on the fine mesh); its Snap record, or None."""
+    fine = sheet.problem
+    kappa, g = phase.loads(located.p)
+    w = transfer(cproblem, fold.landing, fine)
+    w[fine.clamp_dofs] = fine.clamp_values(kappa)
+    res = newton(fine, w, g, job.linear, job.newton_options, job.stats)
+    landing = None
+    if res.converged:
+        stable, _ = end_state_verdict(fine, job.linear, res.w, job.stats)
+        if stable is not False:
+            landing = res.w
+    if landing is None:
+        found, _, _ = snap_from_fold(sheet, phase, fold.snap.phase,
+                                     replace(located, crossing=crossing),
+                                     newton_options=job.newton_options,
+                                     step_options=job.step_options,
+                                     negative_eigenvalues=crossing)
+        if found is None:
+            return None
+        return found.snap
+    return Snap(fold.snap.phase, float(located.value), kappa, g,
+                sheet.deflection(located.u, (kappa, g)), tip_deflection(fine, landing),
+                tuple(crossing), float(fine.sheet_mesh.hmax))
+
+
+def _before_fold(sheet, phase, fold, tol):
+    """The equilibrium at full load of ``phase`` (``lam = 1``) on the branch
+    before the fold ``fold`` at ``lam* > 1``: predicted from the fold's normal
+    form ``lam - lam* = c s^2`` along its null vector ``v`` (``c = -a / (2 v .
+    R_lam)``) on the stable side (``a s > 0``), solved by Newton; the full
+    dof vector, or None."""
+    counter = Counting(phase)
+    u, p, v = fold.u, fold.p, fold.v
+    r_lam = counter.dresidual(u, p, 0)
+    vr = float(v @ r_lam)
+    if fold.a == 0 or vr == 0:
+        return None
+    c = -fold.a / (2.0 * vr)
+    if not c * (1.0 - fold.value) > 0:
+        return None
+    s = np.sign(fold.a) * np.sqrt((1.0 - fold.value) / c)
+    res = correct(counter, u + s * v, np.array([1.0]), plain_linearization(counter), tol)
+    if not res.converged:
+        return None
+    return sheet.full(res.u, phase.loads([1.0]))
