@@ -59,6 +59,7 @@ def _fields(r):
     return dict(deflection=r.deflection, message=r.message, kappa_reached=r.kappa,
                 gravity_reached=r.gravity, newton_iterations=r.newton_iterations,
                 load_steps=r.load_steps, rejected_steps=r.rejected_steps,
+                factorizations=r.factorizations,
                 wall_time_s=r.wall_time_s, dofs=r.dofs, stable=r.stable,
                 snaps=[s.to_json() for s in r.snaps])
 

@@ -249,7 +249,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         Gravity load factor.
     solver : linear-solver back-end (see :mod:`skfem_sheet.linalg`)
     options : NewtonOptions
-    stats : Stats
+    stats : ~skfem_sheet.newton.Stats
         Updated in place (iterations, factorizations, timings).
     max_first_increment : float
         Reject the attempt if the first correction moves a node further than

@@ -75,7 +75,7 @@ class SheetLoadProblem(Problem):
     ----------
     problem : SheetProblem
     solver : linear-solver back-end (:func:`skfem_sheet.linalg.make_linear_solver`)
-    stats : Stats, optional
+    stats : ~skfem_sheet.newton.Stats, optional
         Counts factorisations, assemblies and solves (a new one by default).
     newton_options : NewtonOptions, optional
         Their ``linearization`` and ``mip_threshold`` set the Newton matrix

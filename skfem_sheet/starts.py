@@ -76,7 +76,7 @@ class Job:
         Its name (a coarse mesh gets a solver of its own).
     newton_options : NewtonOptions
     step_options : StepOptions
-    stats : Stats
+    stats : ~skfem_sheet.newton.Stats
         Counts the work on the mesh of the solve.
     build : callable(hmax) -> SheetProblem
         The sheet on another mesh (same layers rule, symmetry, quadrature).

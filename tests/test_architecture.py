@@ -317,3 +317,30 @@ def test_the_checker_finds_each_kind_of_violation(rel, code, rule):
 ])
 def test_the_checker_allows_what_the_rules_allow(rel, code):
     assert not _violations_up(rel, code) and not _violations_private(rel, code)
+
+
+# -- the load path's knobs -------------------------------------------------------------------
+def _module_constants(rel):
+    """Module-level UPPER_CASE names assigned in ``rel`` (constants and knobs)."""
+    tree = ast.parse((PACKAGE / rel).read_text())
+    names = set()
+    for node in tree.body:
+        targets = (node.targets if isinstance(node, ast.Assign)
+                   else [node.target] if isinstance(node, ast.AnnAssign) else [])
+        for t in targets:
+            if isinstance(t, ast.Name) and t.id.lstrip("_").isupper():
+                names.add(t.id)
+    return names
+
+
+def test_the_load_path_has_at_most_twelve_knobs():
+    """The module constants of solve.py and continuation.py and the fields of
+    StepOptions: the load path's knobs (30 under the move-size guard; each
+    remaining one a numerical tolerance documented where it is defined)."""
+    from dataclasses import fields
+
+    from skfem_sheet.continuation import StepOptions
+
+    knobs = (_module_constants("solve.py") | _module_constants("continuation.py")
+             | {f.name for f in fields(StepOptions)})
+    assert len(knobs) <= 12, sorted(knobs)

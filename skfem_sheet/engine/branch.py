@@ -109,7 +109,7 @@ class Branch:
     bracket : tuple
         Natural continuation: ``(last value on the branch, first value where
         it was not found)`` when it ended without reaching ``stop``.
-    stats : Stats
+    stats : ~skfem_sheet.engine.protocol.Stats
     rejected : int
         Steps tried and rejected (counted by :func:`~skfem_sheet.engine.loadpath.ramp`).
     """

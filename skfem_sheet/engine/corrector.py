@@ -99,7 +99,7 @@ class NewtonResult:
         ``(residual norm, correction norm)`` at each iterate.
     factorization : object
         The factorised tangent at the last iterate (within ``utol`` of ``u``).
-    stats : Stats
+    stats : ~skfem_sheet.engine.protocol.Stats
     """
 
     u: np.ndarray

@@ -130,7 +130,7 @@ class FoldCurve:
     completed : bool
         The curve left the parameter bounds (the last point is clipped onto them).
     reason : str
-    stats : Stats
+    stats : ~skfem_sheet.engine.protocol.Stats
     """
 
     points: tuple

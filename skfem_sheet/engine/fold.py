@@ -68,7 +68,7 @@ class FoldPoint:
         on both sides of the fold along ``v`` (if checked): they differ by one
         when exactly one eigenvalue crosses zero.
     iterations : int
-    stats : Stats
+    stats : ~skfem_sheet.engine.protocol.Stats
     """
 
     u: np.ndarray = field(repr=False)
