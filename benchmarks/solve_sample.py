@@ -121,6 +121,7 @@ def _child(spec_json, out_path):
             return s
 
         solve_module.make_linear_solver = recording
+        sys.modules["skfem_sheet.starts"].make_linear_solver = recording  # the coarse mesh's
         rss0 = peak_rss_bytes()
         r = solve(Sheet(**spec["parameters"]), path=spec["path"], hmax=spec["hmax"],
                   on_failure="return", **(spec.get("solve_options") or {}))

@@ -128,10 +128,6 @@ class SheetLoadProblem(Problem):
         w[self.free] = u
         return w
 
-    def free_part(self, w):
-        """The free dofs of a full dof vector."""
-        return np.asarray(w, dtype=float)[self.free]
-
     def deflection(self, u, p):
         """Tip deflection d/a (positive downward) of the state ``u`` at ``p``."""
         return tip_deflection(self.problem, self.full(u, p))

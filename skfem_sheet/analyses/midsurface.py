@@ -193,7 +193,7 @@ class SectionFrame:
     angle : ndarray (n,)
         phi(s) = atan2(r'_z, r'_x), the centre line's angle to e1 (positive up).
     strain : ndarray (n,)
-        eps(s) = |r'| - 1, the centre line's stretch.
+        ``eps(s) = |r'| - 1``, the centre line's stretch.
     """
 
     s: np.ndarray

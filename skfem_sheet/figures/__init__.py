@@ -3,21 +3,21 @@
 =====  ==================================================================  =====================
 name   what it shows (paper caption)                                       data
 =====  ==================================================================  =====================
-fig2   d/a against L/a, rectangles (a) and triangles (b),                 fold map
+fig2   d/a against L/a, rectangles (a) and triangles (b),                  fold map
        a/R in {0, 1, 2.5, 5}; both stable branches where bistable
 fig3   deformed sheets coloured by psi/mu at a/R = 2.5, L/a = 1.3:         six full FE solves
        rectangle (both modes), triangle, trapezoids b/a = 0.8, 0.6, 0.4
 fig4   d/a against L/a for b/a in {0, 0.2, ..., 1} at a/R = 0 (a) and      fold map
        2.5 (b); insets against the area A/a^2
-fig5   finite elements against the ribbon model, rectangle and triangle,  fold map + ribbon
+fig5   finite elements against the ribbon model, rectangle and triangle,   fold map + ribbon
        a/R = 1 and 2.5
-fig6   ribbon-model d/a over (L/a, b/a) at a/R = 2.5 (a) and 5 (b), its   ribbon map + fold map
+fig6   ribbon-model d/a over (L/a, b/a) at a/R = 2.5 (a) and 5 (b), its    ribbon map + fold map
        jumps, FE modes (markers) and the FE bistable region
 fig7   the bistable region in (L/a, b/a, a/R): standout L1* (upper) and    fold map
        pop-up L0* (lower) surfaces meeting on the critical curve
-figS1  convergence test: d/a against the largest mesh diameter, L/a 1.8,  nested FE meshes
+figS1  convergence test: d/a against the largest mesh diameter, L/a 1.8,   nested FE meshes
        a/R 5, with the projected exact value (+ MMS rates if recorded)
-figS3  in-plane strains E_ss, E_st, E_tt and stresses T_ss, T_tt of a     one FE solve
+figS3  in-plane strains E_ss, E_st, E_tt and stresses T_ss, T_tt of a      one FE solve
        gravity-free rectangle, L/a 1.5, a/R 0.5, h/a 0.03175
 figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one FE solve
        rectangle L/a 2, a/R 0.5, h/a 0.03175
