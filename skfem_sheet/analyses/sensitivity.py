@@ -97,8 +97,8 @@ from .midsurface import section_frame
 from .observables import tip_deflection
 
 __all__ = ["OUTPUTS", "PARAMETERS", "SI_UNITS", "RELATIVE_STEP", "Sensitivities",
-           "check_parameters", "mapped_problem", "parameter_derivatives", "perturbed",
-           "state_sensitivities", "tip_angle"]
+           "check_parameters", "fold_sensitivities", "mapped_problem", "parameter_derivatives",
+           "perturbed", "state_sensitivities", "tip_angle"]
 
 #: The parameters, in the order they are reported.
 PARAMETERS = ("modulus", "thickness", "curvature", "gravity", "length", "tip_width")
@@ -606,3 +606,63 @@ def state_sensitivities(problem: SheetProblem, w, gravity: float, parameters, *,
                          relative_residual=stats["residual"],
                          time_s=time.perf_counter() - t0, load_factor=float(gravity),
                          modulus=float(problem.sheet.modulus))
+
+
+def fold_sensitivities(problem: SheetProblem, w, null_vector, gravity: float, parameters, *,
+                       fold_parameter: str = "length") -> dict:
+    """Derivatives of a fold's location with respect to the other parameters.
+
+    At a fold in ``P`` (the length, for the standout and pop-up lengths) the
+    tangent is singular with the null vector ``phi``; along the fold,
+    ``R(u*(p), P*(p), p) = 0`` and ``phi . R_u = 0`` give
+
+        dP*/dp = -(phi . R_p) / (phi . R_P)
+
+    (the state's own sensitivity diverges there; the fold's does not).
+    ``R_p`` and ``R_P`` are those of :func:`parameter_derivatives`.
+
+    Parameters
+    ----------
+    problem : SheetProblem
+        The sheet at the fold (e.g. the mapped problem of a
+        :class:`~skfem_sheet.foldcurve.SheetFoldProblem` at the fold's
+        parameters, with its curvature).
+    w : ndarray
+        The state at the fold (all dofs).
+    null_vector : ndarray
+        ``phi`` on the free dofs (its scale does not matter).
+    gravity : float
+        The load factor of the state.
+    parameters : str or iterable of str
+        Names from :data:`PARAMETERS`, not ``fold_parameter``.
+    fold_parameter : str
+        The parameter in which the branch turns (``length``, ``tip_width``
+        or ``curvature``).
+
+    Returns
+    -------
+    dict
+        ``{parameter: dP*/dp}``.
+
+    Raises
+    ------
+    ParameterError
+        For ``phi . R_P = 0`` (relative to ``|phi| |R_P|``): then the branch
+        does not turn in ``P`` there (a bifurcation, not a fold).
+    """
+    parameters = check_parameters(parameters, problem.sheet)
+    fold_parameter = check_parameters([fold_parameter], problem.sheet)[0]
+    if fold_parameter in parameters:
+        raise ParameterError(f"parameters must not include the fold's own parameter "
+                             f"{fold_parameter!r}")
+    phi = np.asarray(null_vector, dtype=float)
+    if phi.shape != (len(problem.free),) or not np.all(np.isfinite(phi)) or not np.any(phi):
+        raise ParameterError(f"null_vector must be a nonzero vector on the {len(problem.free)} "
+                             f"free dofs, got shape {phi.shape}")
+    R_p, _, _ = parameter_derivatives(problem, np.asarray(w, dtype=float), gravity,
+                                      (*parameters, fold_parameter))
+    den = float(phi @ R_p[:, -1])
+    if not abs(den) > 1e-9 * np.linalg.norm(phi) * np.linalg.norm(R_p[:, -1]):
+        raise ParameterError(f"the branch does not turn in {fold_parameter} at this point "
+                             f"(phi . R_{fold_parameter} = {den:.3g}): not a fold in it")
+    return {name: -float(phi @ R_p[:, j]) / den for j, name in enumerate(parameters)}
