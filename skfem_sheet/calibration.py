@@ -127,33 +127,54 @@ def _sheet_at_fold(fold_problem: SheetFoldProblem, fold):
     return problem, fold_problem.full(fold.u, p)
 
 
-def fold_point_sensitivities(fold_problem: SheetFoldProblem, fold,
-                             parameters=None) -> FoldSensitivities:
+def fold_point_sensitivities(fold_problem: SheetFoldProblem, fold, parameters=None, *,
+                             u=None, v=None) -> FoldSensitivities:
     """Sensitivities of a located fold of a :class:`~skfem_sheet.foldcurve.SheetFoldProblem`.
 
     Parameters
     ----------
     fold_problem : SheetFoldProblem
         The problem the fold was located on.
-    fold : skfem_sheet.engine.FoldPoint
+    fold : skfem_sheet.engine.FoldPoint or FoldCurvePoint
         From :func:`skfem_sheet.engine.locate_fold` or a continuation's
-        ``branch.fold`` (state, parameters ``(L, b, a/R)``, null vector).
+        ``branch.fold`` (state, parameters ``(L, b, a/R)``, null vector, the
+        index of the parameter it turns in), or a point of a fold curve
+        (:func:`skfem_sheet.engine.fold_curve`: a fold in L; its state and
+        null vector are those its ``on_point`` callback receives, pass them
+        as ``u`` and ``v``).
     parameters : iterable of str, optional
         Default: every parameter of :data:`~skfem_sheet.analyses.sensitivity.PARAMETERS`
         but the fold's own (``length`` for a fold in L).
+    u, v : ndarray, optional
+        The state and the null vector at the fold (free dofs), where ``fold``
+        does not hold them.
 
     Returns
     -------
     FoldSensitivities
     """
-    own = _FOLD_PARAMETER[fold_problem.parameter_names[int(fold.parameter)]]
+    index = int(getattr(fold, "parameter", 0))
+    own = _FOLD_PARAMETER[fold_problem.parameter_names[index]]
+    u = fold.u if u is None else u
+    v = getattr(fold, "v", None) if v is None else v
+    if u is None or v is None:
+        raise ParameterError("the fold's state u and null vector v are needed (a fold curve "
+                             "point holds neither: pass those of its on_point callback)")
     if parameters is None:
         parameters = [p for p in PARAMETERS if p != own]
-    problem, w = _sheet_at_fold(fold_problem, fold)
-    sens = fold_sensitivities(problem, w, fold.v, 1.0, parameters, fold_parameter=own)
-    return FoldSensitivities(kind=_fold_kind(fold), parameter=own, value=float(fold.value),
+    p = np.asarray(fold.p, dtype=float)
+    point = _Located(u=np.asarray(u, dtype=float), p=p)
+    problem, w = _sheet_at_fold(fold_problem, point)
+    sens = fold_sensitivities(problem, w, v, 1.0, parameters, fold_parameter=own)
+    return FoldSensitivities(kind=_fold_kind(fold), parameter=own, value=float(p[index]),
                              sensitivities=sens, fold_deflection=tip_deflection(problem, w),
                              fold=fold, problem=fold_problem)
+
+
+@dataclass(frozen=True)
+class _Located:
+    u: np.ndarray
+    p: np.ndarray
 
 
 def _follow_to_fold(P, p0, path, stop, step):
@@ -588,7 +609,7 @@ def _check_identifiable(J, free, where, reference):
 
 def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvature-first",
               hmax: float = 0.1, *, gravity: float = 1.0, solver: str = "auto",
-              max_evaluations: int = 20, xtol: float = 1e-6, layers=None,
+              max_evaluations: int = 20, xtol: float = 1e-5, layers=None,
               start="coarse") -> Calibration:
     """Fit free parameters of ``sheet`` to measured tip deflections.
 
@@ -622,7 +643,9 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
     max_evaluations : int
         Most model evaluations.
     xtol : float
-        Relative change of the parameters at which the fit stops.
+        Relative change of the parameters at which the fit stops (1e-5: far
+        below the standard error of any measured deflection; smaller costs an
+        evaluation more with noisy data, measured).
 
     Returns
     -------

@@ -26,7 +26,7 @@ from skfem_sheet.calibration import (
     read_measurements,
 )
 from skfem_sheet.cli import main
-from skfem_sheet.engine import locate_fold, natural
+from skfem_sheet.engine import FoldCurvePoint, locate_fold, natural
 from skfem_sheet.foldcurve import TOLERANCES, SheetFoldProblem
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.newton import NewtonOptions, Stats, newton, polish
@@ -216,6 +216,15 @@ def test_a_fold_has_no_sensitivity_to_its_own_parameter(standout):
     P, fold = standout
     with pytest.raises(ParameterError, match="own parameter"):
         fold_point_sensitivities(P, fold, ["length"])
+
+
+def test_a_fold_curve_point_with_its_state_and_null_vector(standout):
+    P, fold = standout
+    point = FoldCurvePoint(p=fold.p, side=fold.side)       # as a fold curve keeps it
+    with pytest.raises(ParameterError, match="null vector"):
+        fold_point_sensitivities(P, point)
+    a = fold_point_sensitivities(P, point, u=fold.u, v=fold.v)
+    assert a.sensitivities == fold_point_sensitivities(P, fold).sensitivities
 
 
 # ------------------------------------------------------------------------------------------
