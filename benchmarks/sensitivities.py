@@ -1,11 +1,11 @@
 """Sensitivities by one back-substitution against finite differences of solves, and calibration (issue 30).
 
-    python benchmarks/sensitivities.py [--hmax 0.1] [--parts state,folds,calibration]
-        [--json out.json] [--txt out.txt]
+    python benchmarks/sensitivities.py [--hmax 0.1] [--parts state,cost,folds,calibration]
+        [--cost-hmax 0.05] [--json out.json] [--txt out.txt]
 
 (default record and table: ``benchmarks/results/accuracy/sensitivities_hmax<H>.{json,txt}``).
 
-Three parts, each on sheets that no test uses:
+Four parts, each on sheets that no test uses:
 
 - ``state``: three sheets (a bistable trapezoid, b/a 0.9, a/R 2.8, on both
   branches; a narrow, thin, stiff trapezoid whose tip rises; a trapezoid whose
@@ -23,8 +23,11 @@ Three parts, each on sheets that no test uses:
   falls like the step squared: where the difference exceeds 1e-3, the
   central difference at a quarter of the step (two more solves) and the
   Richardson extrapolation of the two are reported too.  The cost: the
-  solve's wall time against the sensitivities' (all six, and the modulus
-  alone), their back-substitutions and factorisations.
+  solve's wall time against the sensitivities', their back-substitutions
+  and factorisations.
+- ``cost``: the same on a finer mesh (``--cost-hmax``, default 0.05), sheet
+  A on both paths: the solve with the six sensitivities, and another with
+  the modulus alone.
 - ``folds``: the standout and pop-up lengths of one trapezoid (b/a 0.9,
   a/R 2.6), located with the minimally augmented system
   (:func:`skfem_sheet.calibration.locate_folds`), their sensitivities
@@ -38,11 +41,13 @@ Three parts, each on sheets that no test uses:
   E/(rho g a) = 700, noise of standard deviation 0.002 a, three seeds), the
   modulus fitted from 735 with :func:`skfem_sheet.calibrate`: the recovered
   value, its standard error, the error in standard errors, the number of
-  solves; and the refusals (modulus and gravity together; a measurement
+  solves (and seed 0: the same data without noise, an exact fit); and the
+  refusals (modulus and gravity together; a measurement
   across a snap), with their messages.
 """
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -131,7 +136,6 @@ def state_part(hmax, rel):
     for key, sheet in SHEETS.items():
         for path in PATHS:
             r = solve(sheet, path=path, hmax=hmax, sensitivities=S.PARAMETERS)
-            one = S.state_sensitivities(r.problem, r.w, r.gravity, ("modulus",))
             s = r.sensitivities
             costs.append(dict(sheet=key, path=path, branch=r.branch, snaps=len(r.snaps),
                               dofs=r.dofs, solve_s=r.wall_time_s,
@@ -139,8 +143,7 @@ def state_part(hmax, rel):
                               back_substitutions=s.back_substitutions,
                               sens_factorizations=s.factorizations,
                               refinement_steps=s.refinement_steps,
-                              relative_residual=s.relative_residual,
-                              modulus_only_s=one.time_s))
+                              relative_residual=s.relative_residual))
             for name in S.PARAMETERS:
                 fd, branches = _fd(r, name, rel, hmax)
                 got = np.array([s.of(out)[name] for out in S.OUTPUTS])
@@ -166,6 +169,24 @@ def state_part(hmax, rel):
             print(f"  state {key} {path}: d = {r.deflection:.5f} ({r.branch}), max rel. diff "
                   f"{max(x['relative_difference'] for x in rows[-18:]):.2e}", flush=True)
     return rows, costs
+
+
+def cost_part(hmax):
+    """Sheet A on both paths at ``hmax``: the solve with all six sensitivities,
+    and another with the modulus alone (each in the solve, with its factorisation)."""
+    rows = []
+    for path in PATHS:
+        r = solve(SHEETS["A"], path=path, hmax=hmax, sensitivities=S.PARAMETERS)
+        one = solve(SHEETS["A"], path=path, hmax=hmax, sensitivities=("modulus",))
+        rows.append(dict(path=path, dofs=r.dofs, solve_s=r.wall_time_s,
+                         factorizations=r.factorizations, six_s=r.sensitivities.time_s,
+                         modulus_solve_s=one.wall_time_s, modulus_s=one.sensitivities.time_s,
+                         back_substitutions=r.sensitivities.back_substitutions,
+                         sens_factorizations=r.sensitivities.factorizations,
+                         deflection=r.deflection))
+        print(f"  cost {path}: solve {r.wall_time_s:.1f} s, six {r.sensitivities.time_s:.2f} s",
+              flush=True)
+    return rows
 
 
 def _relocate(P, fold, p):
@@ -226,9 +247,10 @@ def calibration_part(hmax):
     truth = {L: solve(CAL_SHEET.replace(length=L, modulus=CAL_TRUTH), hmax=hmax).deflection
              for L in CAL_LENGTHS}
     fits = []
-    for seed in CAL_SEEDS:
+    for seed in (0, *CAL_SEEDS):       # seed 0: no noise (an exact fit)
         rng = np.random.default_rng(seed)
-        ms = [Measurement(deflection=d + CAL_SIGMA * rng.standard_normal(), length=L,
+        sigma = CAL_SIGMA if seed else 0.0
+        ms = [Measurement(deflection=d + sigma * rng.standard_normal(), length=L,
                           uncertainty=CAL_SIGMA) for L, d in truth.items()]
         fit = calibrate(CAL_SHEET, ms, hmax=hmax)
         se = fit.standard_error("modulus")
@@ -280,15 +302,26 @@ def table(out) -> str:
                   f"({sum(x <= 1e-3 for x in rel)} within 1e-3); against the Richardson "
                   f"extrapolation where the step's own error shows: largest {max(best):.2e} "
                   f"({sum(x <= 1e-3 for x in best)} within 1e-3)", "",
-                  "Cost (wall s): the solve, the six sensitivities, the modulus alone",
+                  "Cost (wall s): the solve and its six sensitivities",
                   f"{'sheet':5} {'path':16} {'dofs':>6} {'solve':>7} {'fact':>5} {'six':>7} "
-                  f"{'ratio':>6} {'modulus':>8} {'backsub':>8} {'refact':>6} {'refine':>6}"]
+                  f"{'ratio':>6} {'backsub':>8} {'refact':>6} {'refine':>6}"]
         for c in out["state"]["costs"]:
             lines.append(f"{c['sheet']:5} {c['path']:16} {c['dofs']:6d} {c['solve_s']:7.2f} "
                          f"{c['factorizations']:5d} {c['sensitivities_s']:7.3f} "
-                         f"{c['sensitivities_s'] / c['solve_s']:6.3f} {c['modulus_only_s']:8.3f} "
+                         f"{c['sensitivities_s'] / c['solve_s']:6.3f} "
                          f"{c['back_substitutions']:8d} {c['sens_factorizations']:6d} "
                          f"{c['refinement_steps']:6d}")
+    if "cost" in out:
+        lines += ["", f"Cost on a finer mesh (hmax {out['cost']['hmax']}): sheet A, the solve "
+                  "with the six sensitivities and with the modulus alone (wall s)",
+                  f"{'path':16} {'dofs':>7} {'solve':>8} {'fact':>5} {'six':>7} {'ratio':>6} "
+                  f"{'modulus':>8} {'ratio':>6} {'backsub':>8} {'refact':>6}"]
+        for c in out["cost"]["rows"]:
+            lines.append(f"{c['path']:16} {c['dofs']:7d} {c['solve_s']:8.2f} "
+                         f"{c['factorizations']:5d} {c['six_s']:7.3f} "
+                         f"{c['six_s'] / c['solve_s']:6.3f} {c['modulus_s']:8.3f} "
+                         f"{c['modulus_s'] / c['modulus_solve_s']:6.3f} "
+                         f"{c['back_substitutions']:8d} {c['sens_factorizations']:6d}")
     if "folds" in out:
         f = out["folds"]
         lines += ["", f"Fold lengths of b/a {FOLD_SHEET['tip_width']}, a/R "
@@ -325,19 +358,28 @@ def main(argv=None):
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--step", type=float, default=1e-3,
                     help="relative step of the finite differences (default 1e-3)")
-    ap.add_argument("--parts", default="state,folds,calibration",
-                    help="comma list of state, folds, calibration")
+    ap.add_argument("--parts", default="state,cost,folds,calibration",
+                    help="comma list of state, cost, folds, calibration (a record's other "
+                         "parts are kept)")
+    ap.add_argument("--cost-hmax", type=float, default=0.05,
+                    help="mesh size of the cost part (default 0.05)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--txt", default=None)
     args = ap.parse_args(argv)
     parts = [p.strip() for p in args.parts.split(",") if p.strip()]
-    bad = [p for p in parts if p not in ("state", "folds", "calibration")]
+    bad = [p for p in parts if p not in ("state", "cost", "folds", "calibration")]
     if bad:
-        ap.error(f"--parts must be from state, folds, calibration, got {', '.join(bad)}")
+        ap.error(f"--parts must be from state, cost, folds, calibration, got {', '.join(bad)}")
     warn_if_busy()
     base = os.path.join(RESULTS, f"sensitivities_hmax{args.hmax:g}")
     json_path, txt_path = args.json or base + ".json", args.txt or base + ".txt"
-    out = {"meta": dict(hmax=args.hmax, step=args.step, machine=machine_info())}
+    out = {}
+    if os.path.exists(json_path):          # keep the parts not run now
+        with open(json_path) as fh:
+            out = json.load(fh)
+    out["meta"] = dict(hmax=args.hmax, step=args.step, machine=machine_info(), parts=parts)
+    if "cost" in parts:
+        out["cost"] = dict(hmax=args.cost_hmax, rows=cost_part(args.cost_hmax))
     if "state" in parts:
         rows, costs = state_part(args.hmax, args.step)
         out["state"] = dict(rows=rows, costs=costs)
