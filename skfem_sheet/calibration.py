@@ -324,8 +324,12 @@ class Measurement:
     ----------
     deflection : float
         d/a, positive downward (the package's :func:`~skfem_sheet.analyses.observables.tip_deflection`).
-    length, tip_width, curvature : float or None
-        The sheet's (None: those of the sheet given to :func:`calibrate`).
+    length : float or None
+        L/a of the measured sheet (None: that of the sheet given to :func:`calibrate`).
+    tip_width : float or None
+        Its b/a (None: the calibration sheet's).
+    curvature : float or None
+        Its a/R (None: the calibration sheet's).
     uncertainty : float or None
         Standard deviation of ``deflection`` (in a); give it for all
         measurements or for none.
@@ -419,8 +423,10 @@ class Calibration:
     ----------
     parameters : tuple of str
         The fitted parameters.
-    values, standard_errors : tuple of float
-        Their fitted values and standard errors, ``sqrt(diag(C))`` with
+    values : tuple of float
+        Their fitted values.
+    standard_errors : tuple of float
+        Their standard errors, ``sqrt(diag(C))`` with
         ``C = s^2 (J^T J)^-1`` at the fit; ``s^2 = 1`` with the measurements'
         uncertainties (``J`` weighted by them), else the residual variance
         ``RSS / (n - k)`` (NaN for as many measurements as parameters: an
@@ -440,9 +446,14 @@ class Calibration:
         The given sheet with the fitted values.
     gravity : float
         The load factor at the fit.
-    solves, evaluations : int
-        Solves of the sheet (one per measurement and evaluation), and model
-        evaluations (each gives the deflections and their Jacobian).
+    path : str
+        The calibration's load path.
+    hmax : float
+        Mesh size of the solves.
+    solves : int
+        Solves of the sheet (one per measurement and evaluation).
+    evaluations : int
+        Model evaluations (each gives the deflections and their Jacobian).
     converged : bool
     message : str
         The least-squares solver's.

@@ -496,11 +496,14 @@ class Sensitivities:
     values : tuple of tuple
         ``values[i][j] = d outputs[i] / d parameters[j]``, dimensionless
         (lengths in a, energies in rho g a^4, the modulus in rho g a).
-    back_substitutions, factorizations, tangent_assemblies : int
-        The linear algebra: one back-substitution per parameter and per
-        refinement step; a factorisation only where the held one did not
-        serve (0 after a solve).
+    back_substitutions : int
+        One per parameter and per refinement step.
+    factorizations : int
+        Only where the held factorisation did not serve (0 after a solve).
+    tangent_assemblies : int
+        The tangent at the state, for the refinement (1).
     refinement_steps : int
+        Iterative refinement steps of equation (1).
     residual_evaluations : int
         Residuals at perturbed parameters (two per parameter that enters the
         residual at a fixed state).
