@@ -31,7 +31,8 @@ LAYERS = {
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
     "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
-    "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface
+    "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface,
+                              # sensitivities of a solved state and of a fold
     "reduced/": 9,            # reduced-order models
     "sheet_engine.py": 9,     # the sheet as an engine problem in its loads (SheetLoadProblem)
     "continuation.py": 10,    # load paths (follow_path): continuation in the loads, snaps
@@ -42,6 +43,7 @@ LAYERS = {
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
     "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
+    "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
     "plot.py": 14,            # drawing a solved sheet
