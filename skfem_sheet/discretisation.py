@@ -211,6 +211,56 @@ class TaylorHoodSpace:
                        laplacian=element_laplacian(dx, dphi), load_z=ref.load_z * s,
                        volume=ref.volume * s, reference=ref)
 
+    def mapped(self, mesh: SheetMesh) -> TaylorHoodSpace:
+        """This space carried onto ``mesh``: the same tetrahedra with moved
+        vertices (the map of a trapezoid onto another, :mod:`skfem_sheet.sheet_shape`).
+
+        Each tetrahedron of ``mesh`` is the image of the one of ``self.mesh``
+        under an affine map ``x -> A_e x + c_e``, so the P2 gradients are
+        ``grad phi A_e^{-1}`` (as rows), the volume weights ``dx |det A_e|``,
+        the P2 nodes the images of the old ones (straight edges), and the values
+        of the basis at the quadrature points the same: what :meth:`build`
+        computes on ``mesh``, without building scikit-fem bases (the
+        topology, dof numbering and dof sets are kept).  ``basis_u`` and
+        ``basis_p`` stay those of ``self.mesh``: do not interpolate with the
+        result (build a space for that).
+
+        Examples
+        --------
+        >>> from dataclasses import replace
+        >>> from skfem import MeshTet
+        >>> from skfem_sheet.mesh import sheet_mesh
+        >>> from skfem_sheet.params import Sheet
+        >>> m = sheet_mesh(Sheet(length=1.0, tip_width=1.0, curvature=1.0), 0.3, half=True)
+        >>> s = TaylorHoodSpace.build(m)
+        >>> P = m.mesh.p * np.array([[1.2], [0.9], [1.0]])
+        >>> m2 = replace(m, mesh=MeshTet(P, m.mesh.t), length=1.2)
+        >>> a, b = s.mapped(m2), TaylorHoodSpace.build(m2)
+        >>> bool(np.allclose(a.dphi, b.dphi) and np.allclose(a.dx, b.dx)
+        ...      and np.allclose(a.nodes, b.nodes) and np.allclose(a.load_z, b.load_z))
+        True
+        """
+        t = self.mesh.mesh.t
+        X0 = self.mesh.mesh.p[:, t]  # (3, 4, nel)
+        X1 = mesh.mesh.p[:, t]
+        E0 = np.transpose(X0[:, 1:] - X0[:, :1], (2, 0, 1))  # (nel, 3, 3): columns are edges
+        E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))
+        A = E1 @ np.linalg.inv(E0)  # x1 - x1_0 = A (x0 - x0_0)
+        Ainv = np.linalg.inv(A)
+        dphi = np.einsum("eqaj,ejk->eqak", self.dphi, Ainv)
+        dx = self.dx * np.abs(np.linalg.det(A))[:, None]
+        en = self.element_nodes
+        rel = self.nodes[en] - X0[:, 0].T[:, None, :]  # (nel, 10, 3)
+        nodes = np.empty_like(self.nodes)
+        nodes[en] = np.einsum("eij,eaj->eai", A, rel) + X1[:, 0].T[:, None, :]
+        load_z = np.zeros(self.ndof)
+        load_z[:self.nu_dof] = np.bincount(
+            (3 * en + 2).ravel(), np.einsum("eq,eqa->ea", dx, self.phi2).ravel(),
+            minlength=self.nu_dof)
+        return replace(self, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx, nodes=nodes,
+                       laplacian=element_laplacian(dx, dphi), load_z=load_z,
+                       volume=float(dx.sum()), reference=None)
+
 
 def taylor_hood_space(mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
     """The Taylor-Hood space of ``mesh`` (cached: problems on one mesh share it)."""

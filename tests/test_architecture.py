@@ -33,14 +33,15 @@ LAYERS = {
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
     "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface
     "reduced/": 9,            # reduced-order models
-    "sheet_engine.py": 9,     # the sheet as an engine problem in its loads (SheetLoadProblem)
+    "sheet_engine.py": 9,     # the sheet as an engine problem: Factorization, SheetLoadProblem
     "continuation.py": 10,    # load paths (follow_path): continuation in the loads, snaps
+    "sheet_shape.py": 10,     # the sheet as an engine problem in (L, b, a/R), the remesh rule
     "result.py": 11,          # Result, Result.to_record, StartRecord, SolveError
     "starts.py": 11,          # the start strategies (PathStart, CoarseStart)
     "solve.py": 11,           # solve: the facade
     "__init__.py": 11,        # the package's facade (Sheet, solve, Result, ...)
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
-    "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
+    "foldcurve/": 12,         # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
