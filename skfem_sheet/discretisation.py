@@ -7,14 +7,16 @@ displacement components of its nodes; a half model (``mesh.half``) also fixes
 ``U_y = 0`` on the symmetry plane ``y = 0``.  ``free`` is sorted, so in every
 reduced (free-dof) vector or matrix the free displacement dofs come first.
 
-:func:`taylor_hood_space` builds (and caches) the space of a mesh;
+:meth:`TaylorHoodSpace.build` builds the space of a mesh (a solve or a
+study keeps it in its :class:`~skfem_sheet.build.BuildChain`);
 :meth:`TaylorHoodSpace.stretched` gives the same space on the mesh stretched
-in x, which is how a sheet's length becomes a continuous parameter.
+in x, which is how a sheet's length becomes a continuous parameter, and
+:meth:`TaylorHoodSpace.mapped` the same space on the mesh with its vertices
+moved (the map of one trapezoid onto another, for the tip width).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import numpy as np
 from skfem import Basis, ElementTetP1, ElementTetP2
@@ -22,7 +24,7 @@ from skfem import Basis, ElementTetP1, ElementTetP2
 from .mesh import SheetMesh
 from .params import check_range
 
-__all__ = ["TaylorHoodSpace", "taylor_hood_space", "SaddlePointLayout"]
+__all__ = ["TaylorHoodSpace", "SaddlePointLayout"]
 
 
 def element_laplacian(dx, dphi):
@@ -117,7 +119,8 @@ class TaylorHoodSpace:
 
     @classmethod
     def build(cls, mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
-        """The space of ``mesh`` (uncached; see :func:`taylor_hood_space`)."""
+        """The space of ``mesh`` (built afresh; a :class:`~skfem_sheet.build.BuildChain`
+        keeps the spaces it builds)."""
         m = mesh.mesh
         b2 = Basis(m, ElementTetP2(), intorder=quadrature_order)
         b1 = Basis(m, ElementTetP1(), intorder=quadrature_order)
@@ -260,16 +263,6 @@ class TaylorHoodSpace:
         return replace(self, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx, nodes=nodes,
                        laplacian=element_laplacian(dx, dphi), load_z=load_z,
                        volume=float(dx.sum()), reference=None)
-
-
-def taylor_hood_space(mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
-    """The Taylor-Hood space of ``mesh`` (cached: problems on one mesh share it)."""
-    return _cached_space(mesh, quadrature_order)
-
-
-@lru_cache(maxsize=8)
-def _cached_space(mesh, quadrature_order):
-    return TaylorHoodSpace.build(mesh, quadrature_order)
 
 
 @dataclass(frozen=True, eq=False)

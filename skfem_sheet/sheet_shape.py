@@ -53,7 +53,6 @@ import numpy as np
 from skfem import MeshTet
 
 from .analyses.transfer import transfer
-from .assembly import Assembler
 from .continuation import follow_path
 from .discretisation import TaylorHoodSpace
 from .engine import Tolerances
@@ -197,9 +196,8 @@ class SheetShapeProblem(SheetEngineProblem):
     def _build(self, sheet):
         # the mesh, its space and its assembler this problem's own (freed
         # with it): a continuation's meshes are not needed by anyone else
-        mesh = sheet_mesh(sheet, self.hmax, self.layers, half=self.half, refine=self.refine)
-        space = TaylorHoodSpace.build(mesh)
-        return SheetProblem(sheet, mesh, space=space, assembler=Assembler.build(space))
+        return SheetProblem(sheet, sheet_mesh(sheet, self.hmax, self.layers, half=self.half,
+                                              refine=self.refine))
 
     def new_solver(self, base=None):
         """A fresh linear solver for this problem's systems."""

@@ -27,8 +27,9 @@ LAYERS = {
     "engine/": 1,             # the continuation engine: generic, imports only params
     "discretisation.py": 2,   # TaylorHoodSpace: bases, dof layout, split/join, dof sets
     "kernels.py": 3,          # material kernels (pure numpy)
-    "assembly.py": 4,         # Assembler: sparsity pattern, buffers, threads
+    "assembly.py": 4,         # Assembler: sparsity pattern, buffers, its own threads
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
+    "build.py": 5,            # BuildChain: the meshes, spaces, assemblers a solve or study keeps
     "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
     "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface
