@@ -78,15 +78,24 @@ from ..sheet_shape import (
     TOLERANCES,
     SheetFoldProblem,
 )
-from .cusp import CUSP_TOL
-from .options import FINE_TOLERANCES, FoldCurveOptions, default_start_length
+from .cusp import CUSP_ITERATIONS, CUSP_STEP, CUSP_TOL
+from .options import (
+    FINE_TOLERANCES,
+    MAX_REMESHES,
+    PREDICTOR,
+    REFILL_DS,
+    TARGET_CORRECTION,
+    FoldCurveOptions,
+    default_start_length,
+)
 from .refine import KeptPoint, RefinedPoint, run
 from .result import FoldCurve
 
-__all__ = ["CUSP_TOL", "FINE_TOLERANCES", "MIN_SQUEEZE", "REMESH_SQUEEZE", "REMESH_STRETCH",
-           "TOLERANCES", "FoldCurve", "FoldCurveOptions", "KeptPoint", "RefinedPoint",
-           "SheetFoldProblem", "default_start_length", "trace_curvature_fold_curve",
-           "trace_fold_curve"]
+__all__ = ["CUSP_ITERATIONS", "CUSP_STEP", "CUSP_TOL", "FINE_TOLERANCES", "MAX_REMESHES",
+           "MIN_SQUEEZE", "PREDICTOR", "REFILL_DS", "REMESH_SQUEEZE", "REMESH_STRETCH",
+           "TARGET_CORRECTION", "TOLERANCES", "FoldCurve", "FoldCurveOptions", "KeptPoint",
+           "RefinedPoint", "SheetFoldProblem", "default_start_length",
+           "trace_curvature_fold_curve", "trace_fold_curve"]
 
 
 def trace_fold_curve(curvature: float, hmax: float = 0.1, *, start_length=None,
