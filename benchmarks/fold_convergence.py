@@ -39,16 +39,12 @@ import json
 import os
 import resource
 import time
-from functools import partial
-from unittest import mock
 
 import numpy as np
 
-from skfem_sheet import foldcurve
 from skfem_sheet.engine import natural
 from skfem_sheet.foldcurve import TOLERANCES, SheetFoldProblem
 from skfem_sheet.io import atomic_write, dumps_json
-from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 
 import harness
@@ -74,20 +70,15 @@ def locate(curvature, hmax, kind, start, *, solver="auto", layers=None, step=0.0
     "popup" (gravity-first, L downward), from the length ``start``.
 
     ``refine`` > 0: the mesh of ``hmax`` refined uniformly ``refine`` times
-    (nested; :class:`~skfem_sheet.foldcurve.SheetFoldProblem` has no such
-    option, so the mesh builder it calls is given ``refine`` while the problem
-    is built).
+    (nested; ``SheetFoldProblem(..., refine=refine)``).
 
     Returns a JSON-ready dict (``length`` None if no fold was found).
     """
     t0 = time.perf_counter()
     up = kind == "standout"
     mesh_length = start + (0.02 if up else -0.02)
-    if refine:
-        with mock.patch.object(foldcurve, "sheet_mesh", partial(sheet_mesh, refine=refine)):
-            P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver)
-    else:
-        P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver)
+    P = SheetFoldProblem(curvature, hmax, mesh_length, 1.0, layers=layers, solver=solver,
+                         refine=refine)
     p0 = np.array([start, 1.0, curvature])
     path = "curvature-first" if up else "gravity-first"
     out = {"kind": kind, "start_length": start, "mesh_length": mesh_length, "path": path,
@@ -119,7 +110,7 @@ def locate(curvature, hmax, kind, start, *, solver="auto", layers=None, step=0.0
         last_length=float(branch.values[-1]) if len(branch.points) else None,
         reason=branch.reason,
         factorizations=int(f_start + branch.stats.factorizations + P.refactorizations),
-        ndof=int(P._sheet.ndof),
+        ndof=int(P.ndof),
         wall_time_s=time.perf_counter() - t0,
         peak_rss_mb=_peak_mb())
     return out

@@ -8,8 +8,12 @@
 - the work buffers of the element kernels (:class:`Workspace`), reused from
   call to call (fresh 100 MB arrays at every tangent cost more in page faults
   than the arithmetic), guarded by a lock;
-- the chunking of the elements over a process-wide thread pool (numpy
-  releases the GIL; threads only ever write disjoint slices).
+- the chunking of the elements over its own threads (numpy releases the
+  GIL; threads only ever write disjoint slices): a pool made on the first
+  assembly large enough to be split (:data:`THREAD_MIN_ELEMENTS`), ended when
+  the assembler is dropped.  No pool is shared by the process: whoever holds
+  the assembler (a solve, a study's :class:`~skfem_sheet.build.BuildChain`,
+  a result) holds its threads.
 
 Element matrices are assembled as 3 x 3 node-node and 3 x 1 node-vertex
 blocks: summed per global block pair with two sparse products, then gathered
@@ -22,7 +26,6 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,15 +37,11 @@ try:  # scipy's own CSR x dense kernel, written into the output (private in scip
 except ImportError:  # a scipy without it: same result, one copy
     csr_matvecs = None
 
-__all__ = ["Assembler", "Workspace", "assembler_for", "THREAD_MIN_ELEMENTS", "threads",
+__all__ = ["Assembler", "Workspace", "THREAD_MIN_ELEMENTS", "threads",
            "element_chunks", "on_element_chunks", "scatter_operator", "add_product"]
 
 #: Below this many elements the element kernels run in one thread.
 THREAD_MIN_ELEMENTS = 4000
-#: The thread pool of the element kernels, created on first use and shared by
-#: every assembler of the process (one pool per mesh would leave idle threads
-#: behind in long sweeps).
-_POOL = []
 
 
 def threads() -> int:
@@ -58,13 +57,6 @@ def threads() -> int:
         return max(1, min(4, os.cpu_count() or 1))
 
 
-def _pool():
-    """The process-wide thread pool for the element kernels (created on first use)."""
-    if not _POOL:
-        _POOL.append(ThreadPoolExecutor(threads(), thread_name_prefix="skfem_sheet"))
-    return _POOL[0]
-
-
 def element_chunks(nel):
     """Slices of the elements, one per thread (one slice for small meshes)."""
     n = threads() if nel >= THREAD_MIN_ELEMENTS else 1
@@ -72,14 +64,28 @@ def element_chunks(nel):
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def on_element_chunks(kernel, w, *outs):
-    """``kernel(w, chunk, *out_chunks)`` on every chunk of elements (in the
-    thread pool when there are several), the ``outs`` (nel, ...) sliced per
-    chunk; returns the kernel's results in chunk order."""
+def on_element_chunks(kernel, w, *outs, executor=None):
+    """``kernel(w, chunk, *out_chunks)`` on every chunk of elements (on the
+    threads of ``executor`` when there are several; without one, in turn),
+    the ``outs`` (nel, ...) sliced per chunk; returns the kernel's results in
+    chunk order (the same numbers either way: the chunks do not depend on
+    the executor).
+
+    Examples
+    --------
+    >>> out = np.zeros((5000, 2))
+    >>> def kernel(w, sl, o):
+    ...     o[:] = w
+    ...     return sl.stop - sl.start
+    >>> sum(on_element_chunks(kernel, 1.0, out)) == len(out) and bool(np.all(out == 1.0))
+    True
+    """
     chunks = element_chunks(len(outs[0]))
     if len(chunks) == 1:
         return [kernel(w, chunks[0], *outs)]
-    futures = [_pool().submit(kernel, w, sl, *(o[sl] for o in outs)) for sl in chunks]
+    if executor is None:
+        return [kernel(w, sl, *(o[sl] for o in outs)) for sl in chunks]
+    futures = [executor.submit(kernel, w, sl, *(o[sl] for o in outs)) for sl in chunks]
     return [f.result() for f in futures]
 
 
@@ -115,14 +121,14 @@ def add_product(S, X, Y):
 
 
 class Workspace:
-    """Work buffers of one :class:`Assembler`, allocated on first use, and the
-    lock that serialises their use.
+    """Work buffers and element threads of one :class:`Assembler`, made on
+    first use, and the lock that serialises their use.
 
     Every assembly call holds ``lock`` while it writes and reads the buffers
     and returns fresh arrays, so problems that share an assembler (all
     problems on one mesh, and their :meth:`SheetProblem.with_length` copies)
     can be used from several threads: their assemblies then take turns.
-    Pickling drops the buffers (they are refilled on use).
+    Pickling drops the buffers and the threads (they are made again on use).
 
     Attributes
     ----------
@@ -133,15 +139,30 @@ class Workspace:
     summed : ndarray or None
         The summed-block vector ``V = [Guu | Gup | 0]`` (see :meth:`Assembler.summed_blocks`).
     lock : threading.RLock
+
+    Examples
+    --------
+    >>> ws = Workspace()
+    >>> ws.executor() is ws.executor(), ws.residual is None
+    (True, True)
     """
 
-    __slots__ = ("residual", "blocks", "summed", "lock")
+    __slots__ = ("residual", "blocks", "summed", "lock", "_executor")
 
     def __init__(self):
         self.residual = None
         self.blocks = None
         self.summed = None
         self.lock = threading.RLock()
+        self._executor = None
+
+    def executor(self):
+        """The element threads: a pool of :func:`threads` threads, made on
+        first use and ended with this workspace (when its assembler is dropped)."""
+        with self.lock:
+            if self._executor is None:
+                self._executor = ThreadPoolExecutor(threads(), thread_name_prefix="skfem_sheet")
+            return self._executor
 
     def __reduce__(self):
         return (Workspace, ())
@@ -151,7 +172,9 @@ class Workspace:
 class Assembler:
     """Sparsity patterns, assembly operators and work buffers of one dof layout.
 
-    Build with :meth:`build` (or the cached :func:`assembler_for`).  The
+    Build with :meth:`build` (a :class:`~skfem_sheet.build.BuildChain` keeps
+    the assemblers it builds: the pattern takes a few seconds to build at hmax
+    0.03).  The
     position of the free-free entry (row dof r, column dof c) of a block pair
     is ``indptr_ff[r] + blk_off[pair] + rank[c]`` (see :meth:`build`).
 
@@ -274,8 +297,10 @@ class Assembler:
     # -- element kernels on chunks -------------------------------------------
     def on_element_chunks(self, kernel, w, *outs):
         """``kernel(w, chunk, *out_chunks)`` on chunks of this mesh's elements,
-        in the process-wide thread pool (:func:`on_element_chunks`)."""
-        return on_element_chunks(kernel, w, *outs)
+        on this assembler's threads (:func:`on_element_chunks`, :meth:`Workspace.executor`)."""
+        if len(element_chunks(len(outs[0]))) == 1:
+            return on_element_chunks(kernel, w, *outs)
+        return on_element_chunks(kernel, w, *outs, executor=self.workspace.executor())
 
     # -- buffers (call with workspace.lock held) -----------------------------
     def residual_buffer(self):
@@ -429,11 +454,3 @@ def _clamp_pattern(space, red):
         scatter_fd=scatter_operator(inv, fd, len(uniq), len(ed) * nd * nd),
         indptr_fd=np.concatenate([[0], np.cumsum(np.bincount(r, minlength=nf))]).astype(np.int32),
         indices_fd=c.astype(np.int32))
-
-
-@lru_cache(maxsize=8)
-def assembler_for(space: TaylorHoodSpace) -> Assembler:
-    """The assembler of ``space``'s dof layout (cached per space, so every
-    problem on one mesh shares its pattern and buffers; the pattern takes a
-    few seconds to build at hmax = 0.03)."""
-    return Assembler.build(space if space.reference is None else space.reference)

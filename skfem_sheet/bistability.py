@@ -11,16 +11,17 @@ the three form an S-shaped curve of ``d`` against ``L`` whose turning points
 How the length is made a continuous parameter: a problem built on a mesh of
 length ``L_m`` is stretched in x to any nearby length
 (:meth:`skfem_sheet.problem.SheetProblem.with_length`), so one mesh topology
-carries the nodal solution from one length to the next; beyond a stretch of
-1.35 the sheet is remeshed at the current length and the solution is
-interpolated onto the new mesh (:func:`transfer`).
+carries the nodal solution from one length to the next; beyond the remesh
+rule's stretch (:data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`) the sheet
+is remeshed at the current length and the solution is interpolated onto the
+new mesh (:func:`transfer`).
 
 Every continuation here runs on the engine's drivers
 (:func:`skfem_sheet.engine.natural`, :func:`skfem_sheet.engine.arclength`),
 with the sheet adapted to the engine's problem protocol by
-:class:`_SheetBranchProblem` (one parameter, L or a/R, on a stretched and
-remeshed mesh) and corrected with the sheet's Newton stopping rule
-(:func:`_chord_linearization`).
+:class:`~skfem_sheet.sheet_shape.SheetShapeProblem` (one parameter, L or a/R,
+on a stretched and remeshed mesh) and corrected with the sheet's Newton
+stopping rule (:func:`_chord_linearization`).
 
 Functions
 ---------
@@ -47,26 +48,17 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
-from .analyses.observables import free_edge_nodes, tip_deflection
 from .analyses.stability import stability
 from .analyses.transfer import transfer
-from .assembly import Assembler
-from .continuation import follow_path
-from .discretisation import TaylorHoodSpace
-from .engine import EngineFailure, Problem, Tolerances, arclength, correct, natural
+from .engine import EngineFailure, Tolerances, arclength, correct, natural
 from .engine.protocol import Counting
-from .linalg import make_linear_solver
-from .mesh import sheet_mesh
 from .newton import NewtonOptions, Stats
 from .params import ParameterError, Sheet, check_range
-from .problem import SheetProblem
+from .sheet_shape import REMESH_STRETCH, SheetShapeProblem
 from .version import __version__
 
 __all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
            "follow_length", "follow_curvature", "fold_lengths", "s_curve"]
-
-#: Remesh when the stretch of the current mesh leaves [1/MAX_STRETCH, MAX_STRETCH].
-MAX_STRETCH = 1.35
 
 
 @dataclass(frozen=True)
@@ -144,51 +136,15 @@ class Branch(_Curve):
 
 
 # ----------------------------------------------------------------------------
-# kernels: stability, transfer between meshes, derivative in L
-# ----------------------------------------------------------------------------
-
-
-def _residual_rate(problem, w, g=1.0, rel=1e-6):
-    """``d r / d L`` at fixed nodal state (central difference on the stretch)."""
-    eps = rel * problem.length
-    rp, _ = problem.with_length(problem.length + eps).residual(w, g)
-    rm, _ = problem.with_length(problem.length - eps).residual(w, g)
-    return (rp - rm) / (2 * eps)
-
-
-# ----------------------------------------------------------------------------
-# a sheet that changes length: one mesh, stretched, remeshed when needed
-# ----------------------------------------------------------------------------
-class _Stretched:
-    """The current mesh (built at some length) and the linear solver on it."""
-
-    def __init__(self, sheet, hmax, layers, solver, symmetric):
-        self.hmax, self.layers, self.solver_name, self.half = hmax, layers, solver, symmetric
-        self.generation = 0  # counts factorisations of ``solver``
-        self._build(sheet)
-
-    def _build(self, sheet):
-        # the space and the assembler uncached (taylor_hood_space and
-        # assembler_for keep the last eight alive with their work buffers):
-        # the meshes of a continuation are its own, freed when it remeshes
-        mesh = sheet_mesh(sheet, self.hmax, self.layers, half=self.half)
-        space = TaylorHoodSpace.build(mesh)
-        self.base = SheetProblem(sheet, mesh, space=space, assembler=Assembler.build(space))
-        self.solver = make_linear_solver(self.solver_name)
-        if hasattr(self.solver, "attach"):
-            self.solver.attach(self.base)
-
-    def at(self, length):
-        return self.base.with_length(length)
-
-    def needs_remesh(self, length):
-        s = length / self.base.sheet_mesh.length
-        return not 1.0 / MAX_STRETCH <= s <= MAX_STRETCH
-
-
-# ----------------------------------------------------------------------------
 # the sheet as an engine problem in one parameter (L or a/R)
 # ----------------------------------------------------------------------------
+def _branch_problem(sheet, name, hmax, layers, solver, symmetric):
+    """The sheet at full load as an engine problem in ``name`` ("L" or
+    "a/R"), on its mesh stretched in x (remeshed by the remesh rule)."""
+    return SheetShapeProblem(sheet, hmax, parameters=(name,), geometry="stretch",
+                             layers=layers, half=symmetric, solver=solver, cache=5)
+
+
 #: The sheet's Newton options (:class:`skfem_sheet.newton.NewtonOptions`) as
 #: the engine's stopping rule: the residual relative to the weight, the
 #: largest displacement correction (see :func:`_chord_linearization`).
@@ -234,149 +190,6 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
         state["fact"], state["n"] = fact, state["n"] + 1
         return rn, fact.solve(-r), np.zeros_like(p), fact, J
     return linearize
-
-
-class _Factorization:
-    """The tangent factorised on the track's solver; refactorised if the solver
-    has factorised something else since."""
-
-    def __init__(self, owner, J, w):
-        self.owner, self.J, self.w = owner, J, w
-        self.generation = owner.track.generation
-        self._stability = None
-
-    def _ready(self):
-        track = self.owner.track
-        if track.generation != self.generation:
-            track.solver.factorize(self.J, self.w)
-            track.generation += 1
-            self.generation = track.generation
-
-    def solve(self, b):
-        self._ready()
-        return self.owner.track.solver.solve(b)
-
-    def stability(self):
-        """``(stable, negative eigenvalues)`` (:func:`stability`)."""
-        if self._stability is None:
-            self._ready()
-            self._stability = stability(self.owner.track.base, self.owner.track.solver)
-        return self._stability
-
-    def inertia(self):
-        return self.stability()[1]
-
-
-class _SheetBranchProblem(Problem):
-    """The sheet at full load on a :class:`_Stretched` track, as an engine
-    problem in one parameter: the length ``"L"`` (the mesh stretched in x)
-    or the clamp curvature ``"a/R"`` (the clamped values; the length fixed).
-
-    The state ``u`` holds the free dofs.  Norms as in
-    :mod:`skfem_sheet.newton`: the residual relative to the weight,
-    corrections as the largest displacement; the arclength inner product
-    weighs the mean square of the displacements plus the square of the tip's
-    vertical displacement (pressures left out).
-    """
-
-    def __init__(self, track, name, length, curvature):
-        self.track, self.parameter_names = track, (name,)
-        self.length, self.curvature = float(length), float(curvature)
-        self._setup()
-
-    def _setup(self):
-        b = self.track.base
-        self.free, self.ndof = b.free, b.ndof
-        self._u_free = b.free < b.nu_dof
-        self._theta = 1.0 / max(1, int(np.count_nonzero(self._u_free)))
-        self._rref = float(np.linalg.norm(b.gravity_load[b.free]))
-        tip_nodes = free_edge_nodes(b)
-        tip = 3 * tip_nodes[np.argmin(np.abs(b.nodes[tip_nodes, 1]))] + 2
-        self._tip = int(np.searchsorted(b.free, tip))
-        self._problems = {}
-        self._fixed = None
-        self._last = None
-        self._jacobian_state = None
-
-    # -- the sheet at p ------------------------------------------------------
-    def kappa(self, p):
-        return float(p[0]) if self.parameter_names[0] == "a/R" else self.curvature
-
-    def problem(self, p):
-        L = float(p[0]) if self.parameter_names[0] == "L" else self.length
-        prob = self._problems.get(L)
-        if prob is None:
-            if len(self._problems) > 4:
-                self._problems.clear()
-            prob = self._problems[L] = self.track.at(L)
-        return prob
-
-    def full(self, u, p):
-        """The full state: ``u`` on the free dofs, the clamp values of ``p``."""
-        kappa = self.kappa(p)
-        if self._fixed is None or self._fixed[0] != kappa:
-            w = np.zeros(self.ndof)
-            w[self.track.base.clamp_dofs] = self.track.base.clamp_values(kappa)
-            self._fixed = (kappa, w)
-        w = self._fixed[1].copy()
-        w[self.free] = u
-        return w
-
-    def remesh(self, u, p):
-        """A fresh mesh at the current length; ``u`` interpolated onto it."""
-        old = self.problem(p)
-        w = self.full(u, p)
-        self.track._build(old.sheet)
-        self.track.generation += 1
-        self._setup()
-        return transfer(old, w, self.track.base)[self.free]
-
-    # -- protocol ------------------------------------------------------------
-    def residual(self, u, p):
-        key = (float(p[0]), u.tobytes())
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        r, jmin = self.problem(p).residual(self.full(u, p), 1.0)
-        r = r[self.free] if jmin > 0 else np.full(len(u), np.nan)
-        self._last = (key, r)
-        return r
-
-    def jacobian(self, u, p):
-        w = self.full(u, p)
-        self._jacobian_state = w  # the linear solvers take the state with the matrix
-        return self.problem(p).tangent(w)
-
-    def factorize(self, J):
-        w = self._jacobian_state
-        self.track.solver.factorize(J, w)
-        self.track.generation += 1
-        return _Factorization(self, J, w)
-
-    def current_factorization(self, u, p):
-        """The track solver's present factorisation, taken as the tangent at ``(u, p)``."""
-        return _Factorization(self, None, None)
-
-    def dresidual(self, u, p, i):
-        w = self.full(u, p)
-        prob = self.problem(p)
-        if self.parameter_names[0] == "L":
-            return _residual_rate(prob, w)[self.free]
-        return prob.clamp_coupling(w) @ prob.clamp_rate(self.kappa(p))
-
-    def dual(self, a):
-        c = np.zeros_like(a)
-        c[self._u_free] = self._theta * a[self._u_free]
-        c[self._tip] += a[self._tip]
-        return c
-
-    def residual_norm(self, r):
-        return float(np.linalg.norm(r)) / self._rref
-
-    def correction_norm(self, du):
-        return float(np.abs(du[self._u_free]).max())
-
-    def deflection(self, u, p):
-        return tip_deflection(self.problem(p), self.full(u, p))
 
 
 def _check_common(sheet, hmax, step, tol):
@@ -475,15 +288,13 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
     stop = check_range("stop", stop, **_STOP_RANGE[name])
     t0 = time.perf_counter()
     stats = Stats()
-    track = _Stretched(sheet, hmax, layers, solver, symmetric)
-    P = _SheetBranchProblem(track, name, sheet.length, sheet.curvature)
+    P = _branch_problem(sheet, name, hmax, layers, solver, symmetric)
     counter = Counting(P)
     p0 = np.array([sheet.length if name == "L" else sheet.curvature])
-    out = follow_path(P.problem(p0), path, sheet.curvature, track.solver, stats=stats)
+    out = P.along_path(p0, path, stats)
     if not out.converged:
         raise ParameterError(f"the starting sheet (length {sheet.length:g}, a/R "
                              f"{sheet.curvature:g}) could not be solved along {path}: {out.reason}")
-    track.generation += 1
     guard = 0.25 * max(1.0, sheet.length)
     points, accepted = [], {}
 
@@ -510,7 +321,7 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
             on_point(P.problem(pt.p), P.full(pt.u, pt.p), float(pt.p[0]))
 
     def before_step(u, p, value, fact):
-        if name != "L" or not track.needs_remesh(value):
+        if name != "L" or not P.needs_remesh([value]):
             return None
         moved = _remeshed(P, counter, u, p, path, stats)
         d_here = P.deflection(moved[0], p) if moved is not None else np.nan
@@ -525,7 +336,7 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                 tol=_tolerances(guard), locate=False, inertia_change=False, grow_after=None,
                 check=check, before_step=before_step, on_step=on_step, keep_states=False,
                 linearization=_chord_linearization, progress=progress,
-                start=(out.w[P.free], P.current_factorization(out.w[P.free], p0)))
+                start=(out.w[P.free], P.held(out.w[P.free], p0)))
     fold = None
     if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
         fold = 0.5 * (b.bracket[0] + b.bracket[1])
@@ -535,7 +346,7 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
 
 
 def _stability_of(fact):
-    """``(stable, negative eigenvalues)`` of a factorisation of :class:`_SheetBranchProblem`
+    """``(stable, negative eigenvalues)`` of a factorisation of the branch problem
     (seen through the engine's counter)."""
     return getattr(fact, "fact", fact).stability()
 
@@ -554,11 +365,10 @@ def _remeshed(P, counter, u, p, path, stats):
     res = correct(counter, u_new, p, _chord_linearization(counter), _tolerances())
     if res.converged:
         return res.u, res.factorization
-    out = follow_path(P.problem(p), path, P.kappa(p), P.track.solver, stats=stats)
-    P.track.generation += 1
+    out = P.along_path(p, path, stats)
     if not out.converged:
         return None
-    return out.w[P.free], P.current_factorization(out.w[P.free], p)
+    return out.w[P.free], P.held(out.w[P.free], p)
 
 
 @dataclass(frozen=True)
@@ -738,21 +548,18 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     """
     _check_common(sheet, hmax, 0.5, 0.01)
     stop = check_range("stop", stop, sheet.length, 20.0, lo_open=True)
-    if stop / sheet.length > MAX_STRETCH**2:
-        raise ParameterError(f"stop must be at most {MAX_STRETCH**2:.2f} times the start length "
+    if stop / sheet.length > REMESH_STRETCH**2:
+        raise ParameterError(f"stop must be at most {REMESH_STRETCH**2:.2f} times the start length "
                              f"({sheet.length:g}) for one stretched mesh, got {stop:g}")
     t0 = time.perf_counter()
     stats = Stats()
     mid = np.sqrt(sheet.length * stop)
-    track = _Stretched(sheet.replace(length=mid), hmax, layers, solver, symmetric)
-    P = _SheetBranchProblem(track, "L", sheet.length, sheet.curvature)
+    P = _branch_problem(sheet.replace(length=mid), "L", hmax, layers, solver, symmetric)
     counter = Counting(P)
     p0 = np.array([sheet.length])
-    out = follow_path(P.problem(p0), "curvature-first", sheet.curvature, track.solver,
-                      stats=stats)
+    out = P.along_path(p0, "curvature-first", stats)
     if not out.converged:
         raise ParameterError(f"the starting sheet could not be solved: {out.reason}")
-    track.generation += 1
     points, s_hist, tL_hist = [], [], []
 
     def on_step(pt, res):
@@ -769,7 +576,7 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     b = arclength(counter, u0, p0, 0, (0.0, stop), ds=ds, ds_min=min(1e-3, ds),
                   ds_max=max(ds_max, ds), tol=_ARCLENGTH_TOLERANCES, max_points=max_points, locate=False,
                   keep_states=False, progress=progress, on_step=on_step,
-                  start=(u0, P.current_factorization(u0, p0)))
+                  start=(u0, P.held(u0, p0)))
     message = "" if b.completed else b.reason
     folds = _turning_points(np.array(s_hist), np.array(tL_hist), points)
     return SCurve(tuple(points), tuple(folds), b.completed, message,

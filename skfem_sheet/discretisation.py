@@ -7,14 +7,16 @@ displacement components of its nodes; a half model (``mesh.half``) also fixes
 ``U_y = 0`` on the symmetry plane ``y = 0``.  ``free`` is sorted, so in every
 reduced (free-dof) vector or matrix the free displacement dofs come first.
 
-:func:`taylor_hood_space` builds (and caches) the space of a mesh;
+:meth:`TaylorHoodSpace.build` builds the space of a mesh (a solve or a
+study keeps it in its :class:`~skfem_sheet.build.BuildChain`);
 :meth:`TaylorHoodSpace.stretched` gives the same space on the mesh stretched
-in x, which is how a sheet's length becomes a continuous parameter.
+in x, which is how a sheet's length becomes a continuous parameter, and
+:meth:`TaylorHoodSpace.mapped` the same space on the mesh with its vertices
+moved (the map of one trapezoid onto another, for the tip width).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import numpy as np
 from skfem import Basis, ElementTetP1, ElementTetP2
@@ -22,7 +24,7 @@ from skfem import Basis, ElementTetP1, ElementTetP2
 from .mesh import SheetMesh
 from .params import check_range
 
-__all__ = ["TaylorHoodSpace", "taylor_hood_space", "SaddlePointLayout"]
+__all__ = ["TaylorHoodSpace", "SaddlePointLayout"]
 
 
 def element_laplacian(dx, dphi):
@@ -117,7 +119,8 @@ class TaylorHoodSpace:
 
     @classmethod
     def build(cls, mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
-        """The space of ``mesh`` (uncached; see :func:`taylor_hood_space`)."""
+        """The space of ``mesh`` (built afresh; a :class:`~skfem_sheet.build.BuildChain`
+        keeps the spaces it builds)."""
         m = mesh.mesh
         b2 = Basis(m, ElementTetP2(), intorder=quadrature_order)
         b1 = Basis(m, ElementTetP1(), intorder=quadrature_order)
@@ -211,15 +214,55 @@ class TaylorHoodSpace:
                        laplacian=element_laplacian(dx, dphi), load_z=ref.load_z * s,
                        volume=ref.volume * s, reference=ref)
 
+    def mapped(self, mesh: SheetMesh) -> TaylorHoodSpace:
+        """This space carried onto ``mesh``: the same tetrahedra with moved
+        vertices (the map of a trapezoid onto another, :mod:`skfem_sheet.sheet_shape`).
 
-def taylor_hood_space(mesh: SheetMesh, quadrature_order: int = 2) -> TaylorHoodSpace:
-    """The Taylor-Hood space of ``mesh`` (cached: problems on one mesh share it)."""
-    return _cached_space(mesh, quadrature_order)
+        Each tetrahedron of ``mesh`` is the image of the one of ``self.mesh``
+        under an affine map ``x -> A_e x + c_e``, so the P2 gradients are
+        ``grad phi A_e^{-1}`` (as rows), the volume weights ``dx |det A_e|``,
+        the P2 nodes the images of the old ones (straight edges), and the values
+        of the basis at the quadrature points the same: what :meth:`build`
+        computes on ``mesh``, without building scikit-fem bases (the
+        topology, dof numbering and dof sets are kept).  ``basis_u`` and
+        ``basis_p`` stay those of ``self.mesh``: do not interpolate with the
+        result (build a space for that).
 
-
-@lru_cache(maxsize=8)
-def _cached_space(mesh, quadrature_order):
-    return TaylorHoodSpace.build(mesh, quadrature_order)
+        Examples
+        --------
+        >>> from dataclasses import replace
+        >>> from skfem import MeshTet
+        >>> from skfem_sheet.mesh import sheet_mesh
+        >>> from skfem_sheet.params import Sheet
+        >>> m = sheet_mesh(Sheet(length=1.0, tip_width=1.0, curvature=1.0), 0.3, half=True)
+        >>> s = TaylorHoodSpace.build(m)
+        >>> P = m.mesh.p * np.array([[1.2], [0.9], [1.0]])
+        >>> m2 = replace(m, mesh=MeshTet(P, m.mesh.t), length=1.2)
+        >>> a, b = s.mapped(m2), TaylorHoodSpace.build(m2)
+        >>> bool(np.allclose(a.dphi, b.dphi) and np.allclose(a.dx, b.dx)
+        ...      and np.allclose(a.nodes, b.nodes) and np.allclose(a.load_z, b.load_z))
+        True
+        """
+        t = self.mesh.mesh.t
+        X0 = self.mesh.mesh.p[:, t]  # (3, 4, nel)
+        X1 = mesh.mesh.p[:, t]
+        E0 = np.transpose(X0[:, 1:] - X0[:, :1], (2, 0, 1))  # (nel, 3, 3): columns are edges
+        E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))
+        A = E1 @ np.linalg.inv(E0)  # x1 - x1_0 = A (x0 - x0_0)
+        Ainv = np.linalg.inv(A)
+        dphi = np.einsum("eqaj,ejk->eqak", self.dphi, Ainv)
+        dx = self.dx * np.abs(np.linalg.det(A))[:, None]
+        en = self.element_nodes
+        rel = self.nodes[en] - X0[:, 0].T[:, None, :]  # (nel, 10, 3)
+        nodes = np.empty_like(self.nodes)
+        nodes[en] = np.einsum("eij,eaj->eai", A, rel) + X1[:, 0].T[:, None, :]
+        load_z = np.zeros(self.ndof)
+        load_z[:self.nu_dof] = np.bincount(
+            (3 * en + 2).ravel(), np.einsum("eq,eqa->ea", dx, self.phi2).ravel(),
+            minlength=self.nu_dof)
+        return replace(self, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx, nodes=nodes,
+                       laplacian=element_laplacian(dx, dphi), load_z=load_z,
+                       volume=float(dx.sum()), reference=None)
 
 
 @dataclass(frozen=True, eq=False)

@@ -35,21 +35,22 @@ Why extruded rather than a free 3D tetrahedral mesh:
   paper are read off nodes, and the axis ``y = 0`` carries nodes too (the tip of
   a triangle, the lowest point of the clamp arc).
 
-Meshes are deterministic (gmsh runs single-threaded with fixed options) and
-cached in memory: repeated solves on the same sheet do not remesh.
+Meshes are deterministic (gmsh runs single-threaded with fixed options): the
+same :class:`MeshSpec` gives the same mesh.  Nothing is cached here; a solve
+or a study that wants a mesh again keeps it in its
+:class:`~skfem_sheet.build.BuildChain`.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 from skfem import MeshTet
 
 from .params import ParameterError, Sheet, check_range
 
-__all__ = ["SheetMesh", "sheet_mesh", "plan_triangulation", "refine_triangulation",
+__all__ = ["MeshSpec", "SheetMesh", "sheet_mesh", "plan_triangulation", "refine_triangulation",
            "extrude", "default_layers", "estimate_dofs", "MAX_REFINE"]
 
 MAX_REFINE = 4
@@ -416,9 +417,8 @@ def _planform_curves(geo, length, hmax, planform):
     return loop, tip
 
 
-@lru_cache(maxsize=32)
 def _half_plan(length: float, tip_width: float, hmax: float, planform=None):
-    """gmsh triangulation of ``0 <= y <= p(x)/2`` (cached, deterministic).
+    """gmsh triangulation of ``0 <= y <= p(x)/2`` (deterministic).
 
     Returns ``(xy, tri, segments, pointed)``: vertices, triangles, the
     mesh edges on the tip curves (k, 2, 2) and whether the tip is a point.
@@ -525,7 +525,7 @@ def extrude(xy, tri, thickness: float, layers: int):
 
 def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False,
                refine: int = 0) -> SheetMesh:
-    """The (cached) tetrahedral mesh of ``sheet``.
+    """The tetrahedral mesh of ``sheet`` (made afresh: see :class:`MeshSpec`).
 
     Parameters
     ----------
@@ -553,19 +553,72 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
     >>> r.layers, r.n_elements // m.n_elements
     (4, 8)
     """
-    hmax, layers = _check_mesh_args(sheet, hmax, layers)
-    refine = _check_refine(refine)
-    return _cached_mesh(sheet.length, sheet.tip_width, sheet.thickness, hmax,
-                        layers * 2**refine, bool(half), refine,
-                        getattr(sheet, "planform", None))
+    return MeshSpec.of(sheet, hmax, layers, half, refine).build()
 
 
-@lru_cache(maxsize=16)
-def _cached_mesh(length, tip_width, thickness, hmax, layers, half=False,
-                 refine=0, planform=None) -> SheetMesh:
-    """The mesh; ``layers`` are all the layers (base layers times ``2**refine``)."""
-    xy, tri, free_edge = _plan(length, tip_width, hmax, half, refine, planform)
-    p, t = extrude(xy, tri, thickness, layers)
-    return SheetMesh(mesh=MeshTet(p, t), length=length, tip_width=tip_width,
-                     thickness=thickness, hmax=hmax, layers=layers, half=bool(half),
-                     refine=refine, planform=planform, free_edge=free_edge)
+@dataclass(frozen=True)
+class MeshSpec:
+    """What a sheet mesh is made from: the checked arguments of :func:`sheet_mesh`.
+
+    Equal specs give equal meshes (gmsh runs single-threaded with fixed
+    options), so a spec is the key under which a
+    :class:`~skfem_sheet.build.BuildChain` keeps a mesh.  Sheets that differ
+    only in what the mesh does not depend on (curvature, modulus) have equal
+    specs.
+
+    Attributes
+    ----------
+    length : float
+        L/a of the plan.
+    tip_width : float
+        b/a (ignored with a planform).
+    thickness : float
+        h/a.
+    hmax : float
+        Element size of the plan.
+    layers : int
+        All the layers (the base layers times ``2**refine``).
+    half : bool
+        The half ``y >= 0`` only.
+    refine : int
+        Nested refinements.
+    planform : Planform or None
+        The plan view (None: the trapezoid of ``tip_width``).
+
+    Examples
+    --------
+    >>> spec = MeshSpec.of(Sheet(length=1.0), 0.25, refine=1)
+    >>> spec.layers, spec == MeshSpec.of(Sheet(length=1.0, curvature=3.0), 0.25, refine=1)
+    (4, True)
+    >>> spec.build().n_elements == sheet_mesh(Sheet(length=1.0), 0.25, refine=1).n_elements
+    True
+    """
+
+    length: float
+    tip_width: float
+    thickness: float
+    hmax: float
+    layers: int
+    half: bool = False
+    refine: int = 0
+    planform: object = None
+
+    @classmethod
+    def of(cls, sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False,
+           refine: int = 0) -> MeshSpec:
+        """The spec of :func:`sheet_mesh` with these arguments (checked:
+        bad ones raise :class:`~skfem_sheet.params.ParameterError`)."""
+        hmax, layers = _check_mesh_args(sheet, hmax, layers)
+        refine = _check_refine(refine)
+        return cls(sheet.length, sheet.tip_width, sheet.thickness, hmax, layers * 2**refine,
+                   bool(half), refine, getattr(sheet, "planform", None))
+
+    def build(self) -> SheetMesh:
+        """The mesh: the plan triangulated (gmsh), refined, extruded."""
+        xy, tri, free_edge = _plan(self.length, self.tip_width, self.hmax, self.half,
+                                   self.refine, self.planform)
+        p, t = extrude(xy, tri, self.thickness, self.layers)
+        return SheetMesh(mesh=MeshTet(p, t), length=self.length, tip_width=self.tip_width,
+                         thickness=self.thickness, hmax=self.hmax, layers=self.layers,
+                         half=self.half, refine=self.refine, planform=self.planform,
+                         free_edge=free_edge)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import csv
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field, fields
-from functools import lru_cache
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
@@ -111,11 +111,14 @@ def _samples(name, values) -> np.ndarray:
     return a
 
 
-@lru_cache(maxsize=64)
 def _pchip(xi: tuple, width: tuple):
-    """The PCHIP interpolant of the samples, its derivative and its antiderivative (cached)."""
+    """The PCHIP interpolant of the samples, its derivative and its antiderivative."""
     f = PchipInterpolator(np.asarray(xi), np.asarray(width), extrapolate=True)
     return f, f.derivative(), f.antiderivative()
+
+
+#: Outlines a planform keeps, at its last lengths (:meth:`Planform.outline`).
+_OUTLINES_KEPT = 16
 
 
 @dataclass(frozen=True)
@@ -286,10 +289,31 @@ class Planform:
         xi, w = np.asarray(self.xi), np.asarray(self.width)
         return bool(np.all(np.abs(w - (1.0 + (w[-1] - 1.0) * xi)) <= 1e-12))
 
+    def _memo(self) -> dict:
+        """What this (immutable) planform computed from itself, kept with it:
+        its interpolants and its outlines at the last few lengths (dropped
+        when it is pickled or copied, made again on use)."""
+        memo = self.__dict__.get("_memo_")
+        if memo is None:
+            memo = {"outlines": OrderedDict()}
+            object.__setattr__(self, "_memo_", memo)
+        return memo
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_memo_", None)
+        return state
+
+    def _interpolants(self):
+        memo = self._memo()
+        if "pchip" not in memo:
+            memo["pchip"] = _pchip(self.xi, self.width)
+        return memo["pchip"]
+
     def profile(self, s):
         """p at ``s = x/L`` (PCHIP; linear continuation outside [0, 1])."""
         s = np.asarray(s, dtype=float)
-        f, df, _ = _pchip(self.xi, self.width)
+        f, df, _ = self._interpolants()
         inside = np.clip(s, 0.0, 1.0)
         out = f(inside) + df(inside) * (s - inside)
         return out if out.ndim else float(out)
@@ -297,18 +321,26 @@ class Planform:
     def profile_slope(self, s):
         """dp/d(x/L) at ``s`` (constant continuation outside [0, 1])."""
         s = np.asarray(s, dtype=float)
-        out = _pchip(self.xi, self.width)[1](np.clip(s, 0.0, 1.0))
+        out = self._interpolants()[1](np.clip(s, 0.0, 1.0))
         return out if out.ndim else float(out)
 
     def profile_integral(self, s):
         """int_0^s p(sigma) d sigma (s in [0, 1])."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
-        out = _pchip(self.xi, self.width)[2](s)
+        out = self._interpolants()[2](s)
         return out if out.ndim else float(out)
 
     def outline(self, length: float) -> Outline:
-        """The bite geometry of the sheet of this planform at ``length`` (validated)."""
-        return _outline(self, float(length))
+        """The bite geometry of the sheet of this planform at ``length`` (validated;
+        the last few are kept with the planform)."""
+        length = float(length)
+        outlines = self._memo()["outlines"]
+        out = outlines.get(length)
+        if out is None:
+            out = outlines[length] = _outline(self, length)
+            while len(outlines) > _OUTLINES_KEPT:
+                outlines.popitem(last=False)
+        return out
 
 
 @dataclass(frozen=True)
@@ -374,7 +406,6 @@ def _circle_area(x, c, r):
     return 0.5 * (u * np.sqrt(np.clip(r * r - u * u, 0.0, None)) + r * r * np.arcsin(u / r))
 
 
-@lru_cache(maxsize=64)
 def _outline(planform: Planform, L: float) -> Outline:
     """Locate the bites of ``planform`` on a sheet of length ``L`` (see :class:`Outline`)."""
     if not planform.bites:

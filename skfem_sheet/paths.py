@@ -5,7 +5,7 @@ factor, increasing the length, and then increasing the shape factor".
 :func:`follow` carries one equilibrium of the half sheet along a polyline
 through ``(L/a, b/a, a/R)``: natural continuation with the engine
 (:func:`skfem_sheet.engine.natural`) on the mapped mesh of
-:class:`skfem_sheet.foldcurve.SheetFoldProblem` (the length by stretching in
+:class:`skfem_sheet.sheet_shape.SheetFoldProblem` (the length by stretching in
 x, the tip width by mapping in y, the curvature through the clamp), one
 segment after the other, each parametrised by ``t`` in [0, 1].  Where the
 branch is lost -- at a located fold, or where the continuation cannot go on
@@ -15,8 +15,9 @@ lost state is taken (beyond a fold the old branch does not exist, so both
 land on the other branch); the jump is recorded (where, the deflection
 before and after) and the continuation goes on from there.  The mesh is made
 afresh at a vertex of the polyline where the map would distort it beyond the
-limits of :mod:`skfem_sheet.foldcurve` (segments are cut into pieces that one
-mesh, made in the middle of the piece, serves; the state is transferred).
+remesh rule of :mod:`skfem_sheet.sheet_shape` (segments are cut into pieces
+that one mesh, made in the middle of the piece, serves; the state is
+transferred).
 
 Examples
 --------
@@ -35,8 +36,8 @@ import numpy as np
 
 from .analyses.observables import tip_deflection
 from .engine import Problem, natural
-from .foldcurve import REMESH_SQUEEZE, REMESH_STRETCH, TOLERANCES, SheetFoldProblem
 from .params import ParameterError, Sheet, check_range
+from .sheet_shape import TOLERANCES, SheetFoldProblem, remesh_pieces
 
 __all__ = ["PathResult", "follow"]
 
@@ -143,22 +144,6 @@ def _vertex(v, what):
     return np.array([L, b, k])
 
 
-def _needs_remesh(P, p):
-    L_m, b_m = P.mesh_parameters
-    s, q = p[0] / L_m, p[1] / b_m
-    return not (1 / REMESH_STRETCH <= s <= REMESH_STRETCH
-                and REMESH_SQUEEZE <= q <= 1 / REMESH_SQUEEZE)
-
-
-def _pieces(a, b):
-    """Pieces of the segment ``a -> b`` small enough for one mesh each."""
-    n = 1
-    for i, limit in ((0, REMESH_STRETCH), (1, 1 / REMESH_SQUEEZE)):
-        ratio = max(a[i], b[i]) / min(a[i], b[i])
-        n = max(n, int(np.ceil(np.log(ratio) / np.log(limit) - 1e-9)))
-    return n
-
-
 def follow(sheet: Sheet, through, hmax: float = 0.1, *, step: float = 0.05, layers=None,
            solver: str = "auto", start_path: str = "curvature-first",
            snap_step: float = 0.01) -> PathResult:
@@ -226,12 +211,12 @@ def follow(sheet: Sheet, through, hmax: float = 0.1, *, step: float = 0.05, laye
     pieces = []  # (segment index, start, end): segments cut so that one mesh serves a piece
     a = p0
     for k, b in enumerate(verts):
-        n = _pieces(a, b)
+        n = remesh_pieces(a, b)
         for m in range(n):
             pieces.append((k, a + (b - a) * m / n, a + (b - a) * (m + 1) / n))
         a = b
     for k, a, b in pieces:
-        if _needs_remesh(P, a) or _needs_remesh(P, b):
+        if P.needs_remesh(a) or P.needs_remesh(b):
             Q = make(*np.sqrt(a * b))  # a mesh in the geometric middle of the piece
             u = P.transferred(Q, u, a)
             P, remeshes = Q, remeshes + 1

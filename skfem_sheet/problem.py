@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from skfem import BilinearForm, asm
 
-from .assembly import Assembler, assembler_for
-from .discretisation import SaddlePointLayout, TaylorHoodSpace, taylor_hood_space
+from .assembly import Assembler
+from .discretisation import SaddlePointLayout, TaylorHoodSpace
 from .kernels import (
     clamp_displacement,
     clamp_displacement_rate,
@@ -56,13 +56,14 @@ class SheetProblem:
         Order of the tetrahedral quadrature (2: 4 points, exact for the
         linearised stiffness of P2; 4: 11 points).
     space : TaylorHoodSpace, optional
-        The space on ``mesh`` (default: the cached
-        :func:`~skfem_sheet.discretisation.taylor_hood_space`); a stretched
-        space for :meth:`with_length`.
+        The space on ``mesh`` (default: built here,
+        :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.build`; a
+        :class:`~skfem_sheet.build.BuildChain` gives the one it keeps); a
+        stretched space for :meth:`with_length`.
     assembler : Assembler, optional
-        Default: the cached assembler of the space, shared (pattern and work
-        buffers) by every problem on the mesh; its lock serialises their
-        assemblies.
+        The assembler of the space (default: built here); share one
+        (pattern, work buffers and threads) between problems on one mesh:
+        its lock serialises their assemblies.
 
     Attributes
     ----------
@@ -79,11 +80,11 @@ class SheetProblem:
     def __init__(self, sheet: Sheet, mesh: SheetMesh, quadrature_order: int = 2, *,
                  space: TaylorHoodSpace | None = None, assembler: Assembler | None = None):
         if space is None:
-            space = taylor_hood_space(mesh, quadrature_order)
+            space = TaylorHoodSpace.build(mesh, quadrature_order)
         elif space.mesh is not mesh or space.quadrature_order != quadrature_order:
             raise ValueError("space must be a space on mesh with the quadrature_order given")
         if assembler is None:
-            assembler = assembler_for(space)
+            assembler = Assembler.build(space if space.reference is None else space.reference)
         elif assembler.n_free != space.n_free or assembler.ndof != space.ndof:
             raise ValueError("assembler does not match the space's dof layout")
         object.__setattr__(self, "sheet", sheet)

@@ -1,30 +1,36 @@
-"""The sheet as a problem of the continuation engine, in its loads.
+"""The sheet as a problem of the continuation engine.
 
-:class:`SheetLoadProblem` says what one discrete sheet (a
-:class:`~skfem_sheet.problem.SheetProblem` on one mesh) is to the engine's
-drivers (:mod:`skfem_sheet.engine`): the state ``u`` is the vector of free
-dofs, the parameters are the loads ``p = (curvature, gravity)`` (the clamp's
-curvature a/R, which sets the clamped values, and the gravity factor), and
+The engine's drivers (:mod:`skfem_sheet.engine`) see a problem through its
+protocol: a state ``u``, parameters ``p``, ``residual``, ``jacobian``,
+``factorize``, ``dresidual``, norms and an inner product.
+:class:`SheetEngineProblem` is what every adapter of the discrete sheet (a
+:class:`~skfem_sheet.problem.SheetProblem`) to that protocol shares:
 
+- the state ``u`` is the vector of free dofs; :meth:`~SheetEngineProblem.full`
+  adds the clamp values of the clamp curvature a/R of ``p``;
 - ``residual(u, p)``: the free rows of ``dPi/dw`` (NaN where an element
-  inverts, so that the corrector halves the step);
-- ``jacobian(u, p)``: the tangent (the Hessian of the energy), and
-  ``newton_jacobian(u, p, previous)`` the matrix of Newton corrections
-  (the mixed-integration-point linearisation from the previous iterate,
-  :class:`~skfem_sheet.newton.NewtonOptions`);
-- ``factorize(J)``: on the sheet's linear solver, with a lazy
-  refactorisation when the solver has factorised something else since; the
-  inertia is the number of negative eigenvalues of the constrained Hessian
-  (:func:`~skfem_sheet.analyses.stability.stability`), unknown (None) for a
-  factorisation of a MIP matrix or when PARDISO perturbed pivots;
-- ``dresidual``: exact in both loads (``dR/dg`` is the weight vector,
-  ``dR/dkappa`` the clamp coupling times the rate of the clamp values);
+  inverts, so that the corrector halves the step), the last few kept (the
+  corrector asks again for the residual at the point it just evaluated);
+- ``jacobian(u, p)``: the tangent (the Hessian of the energy);
+- ``factorize(J)``: on the adapter's linear solver(s), returning a
+  :class:`Factorization` -- **the one lazy refactorisation**: a solver holds
+  one factorisation at a time, so a factorisation used after its solver has
+  factorised something else is factorised again first (counted);
+  its inertia is the number of negative eigenvalues of the constrained
+  Hessian (:func:`~skfem_sheet.analyses.stability.stability`), read when it is
+  made, unknown (None) for a matrix that is not the Hessian or when PARDISO
+  perturbed pivots;
 - the norms of :mod:`skfem_sheet.newton` (residual relative to the full
   weight, corrections as the largest displacement) and the arclength inner
   product: the mean square of the displacements plus the square of the tip's
   vertical displacement (pressures left out).
 
-Every factorisation, assembly and linear solve is counted in the sheet's
+Two kinds of parameters: :class:`SheetLoadProblem` (here) has the loads
+``p = (curvature, gravity)`` on one mesh (the load paths of
+:mod:`skfem_sheet.continuation`); :class:`skfem_sheet.sheet_shape.SheetShapeProblem`
+has the shape ``(L, b, a/R)`` at full load, on a mesh mapped to it and
+remeshed (bistability, fold curves and paths through parameter space).
+Every factorisation, assembly and linear solve is counted in the adapter's
 :class:`~skfem_sheet.newton.Stats`.
 """
 from __future__ import annotations
@@ -37,38 +43,226 @@ from .engine.protocol import EngineFailure, Problem
 from .linalg import LinearSolverError
 from .newton import NewtonOptions, Stats, timed
 
-__all__ = ["LoadPhase", "SheetLoadProblem"]
+__all__ = ["Factorization", "LoadPhase", "SheetEngineProblem", "SheetLoadProblem", "SolverSlot"]
 
 
-class _Factorization:
-    """A factorised matrix on the sheet's solver (refactorised if the solver
-    has factorised another matrix since); its inertia read once."""
+class SolverSlot:
+    """One linear solver of an adapter and its *generation*: the number of
+    factorisations it has made (a :class:`Factorization` made at an older
+    generation is no longer the solver's)."""
 
-    def __init__(self, owner, K, w, exact):
-        self.owner, self.K, self.w, self.exact = owner, K, w, exact
-        self.generation = owner.generation
-        k = stability(owner.problem, owner.solver)[1] if exact else None
-        self._negative = k
+    __slots__ = ("solver", "generation")
+
+    def __init__(self, solver):
+        self.solver, self.generation = solver, 0
+
+
+class Factorization:
+    """A matrix factorised on one of an adapter's solvers.
+
+    The solver holds one factorisation at a time: :meth:`solve` first
+    factorises the matrix again if the solver has factorised something else
+    since (the lazy refactorisation; counted in the adapter's ``stats`` and
+    ``refactorizations``).  A factorisation *held* (:meth:`SheetEngineProblem.held`)
+    has no matrix: it is assembled from the state when needed.
+
+    Attributes
+    ----------
+    exact : bool
+        The matrix is the Hessian (not a Newton matrix linearised elsewhere):
+        its inertia says whether the state is stable.
+    generation : int
+        The generation of its solver when it was (last) factorised.
+    """
+
+    def __init__(self, owner, slot: SolverSlot, K, w, p, exact: bool = True):
+        self.owner, self.slot, self.K, self.w, self.p = owner, slot, K, w, p
+        self.exact = bool(exact)
+        self.generation = slot.generation
+        self._stability = (stability(owner.layout, slot.solver) if exact else (None, None))
 
     def _ready(self):
-        o = self.owner
-        if o.generation != self.generation:
+        o, slot = self.owner, self.slot
+        if slot.generation != self.generation:
             if self.K is None:  # the solver's matrix at the time: the tangent at w
-                self.K = timed(o.stats, "assembly_s", o.problem.tangent, self.w)
-            o._factorize(self.K, self.w)  # counted with the factorisations
-            self.generation = o.generation
+                self.K = timed(o.stats, "assembly_s", o.problem_at(self.p).tangent, self.w)
+            o.factorize_on(slot, self.K, self.w)
+            o.refactorizations += 1
+            self.generation = slot.generation
 
     def solve(self, b):
         self._ready()
-        return timed(self.owner.stats, "linear_solve_s", self.owner.solver.solve, b)
+        return timed(self.owner.stats, "linear_solve_s", self.slot.solver.solve, b)
+
+    def stability(self):
+        """``(stable, negative eigenvalues)`` (None, None if unknown)."""
+        return self._stability
 
     def inertia(self):
         """Negative eigenvalues of the constrained Hessian (None: unknown, or
         the matrix was not the Hessian)."""
-        return self._negative
+        return self._stability[1]
 
 
-class SheetLoadProblem(Problem):
+class SheetEngineProblem(Problem):
+    """What every adapter of the sheet to the engine shares (see the module
+    docstring).  Subclasses say what the parameters are: :meth:`problem_at`
+    (the discrete sheet at ``p``), :meth:`kappa` (its clamp curvature) and
+    :meth:`gravity`.
+
+    Parameters
+    ----------
+    layout : SheetProblem
+        The discrete sheet whose dof layout (free dofs, clamp, tip) the
+        states use; every problem at a ``p`` shares it.
+    solvers : sequence of linear-solver back-ends
+        The solver slots: factorisations are made on them in turn, so that
+        ``len(solvers)`` of them are held at once.
+    stats : ~skfem_sheet.newton.Stats, optional
+    residual_memory : int
+        Residuals kept (the latest first).
+    """
+
+    def __init__(self, layout, solvers, stats: Stats | None = None, residual_memory: int = 1):
+        self.stats = stats if stats is not None else Stats()
+        self.refactorizations = 0  # factorisations made again by Factorization.solve
+        self._slots = [SolverSlot(s) for s in solvers]
+        self._next = 0
+        self._memory = max(1, int(residual_memory))
+        self.set_layout(layout)
+
+    def set_layout(self, layout):
+        """Take the dof layout of ``layout`` (a new mesh); kept residuals are dropped."""
+        self.layout = layout
+        self.free = layout.free
+        self.n = len(self.free)
+        self.nu_dof, self.ndof = layout.nu_dof, layout.ndof
+        self._u_free = self.free < layout.nu_dof
+        self._theta = 1.0 / max(1, int(np.count_nonzero(self._u_free)))
+        self._rref = float(np.linalg.norm(layout.gravity_load[self.free]))
+        tip_nodes = free_edge_nodes(layout)
+        tip = 3 * tip_nodes[np.argmin(np.abs(layout.nodes[tip_nodes, 1]))] + 2
+        #: Index in ``u`` of the vertical displacement of the tip's centre.
+        self.tip_index = int(np.searchsorted(self.free, tip))
+        self._fixed = None
+        self._residuals = []  # (p, u, residual), the latest first
+        self._matrix = None  # (state, p, exact) of the last matrix assembled
+
+    # -- the parameters (subclasses) -------------------------------------------
+    def problem_at(self, p):  # pragma: no cover - protocol of the subclasses
+        """The discrete sheet (a SheetProblem) at ``p``."""
+        raise NotImplementedError
+
+    def kappa(self, p) -> float:  # pragma: no cover - protocol of the subclasses
+        """The clamp curvature a/R at ``p``."""
+        raise NotImplementedError
+
+    def gravity(self, p) -> float:
+        """The gravity factor at ``p`` (full load: 1)."""
+        return 1.0
+
+    # -- states --------------------------------------------------------------
+    @property
+    def solver(self):
+        """The solver of the first slot (the only one of a one-slot adapter)."""
+        return self._slots[0].solver
+
+    @property
+    def generation(self) -> int:
+        """Factorisations made on :attr:`solver`."""
+        return self._slots[0].generation
+
+    def full(self, u, p):
+        """The full dof vector: ``u`` on the free dofs, the clamp values of
+        the curvature at ``p``."""
+        kappa = self.kappa(p)
+        if self._fixed is None or self._fixed[0] != kappa:
+            w = np.zeros(self.layout.ndof)
+            w[self.layout.clamp_dofs] = self.layout.clamp_values(kappa)
+            self._fixed = (kappa, w)
+        w = self._fixed[1].copy()
+        w[self.free] = u
+        return w
+
+    def deflection(self, u, p):
+        """Tip deflection d/a (positive downward) of the state ``u`` at ``p``."""
+        return tip_deflection(self.problem_at(p), self.full(u, p))
+
+    # -- protocol ------------------------------------------------------------
+    def residual(self, u, p):
+        key = tuple(float(x) for x in p)
+        for k, uu, r in self._residuals:
+            if k == key and np.array_equal(uu, u):
+                return r.copy()
+        r = self.evaluate_residual(u, p)
+        self._residuals = [(key, np.array(u, dtype=float, copy=True), r),
+                           *self._residuals[:self._memory - 1]]
+        return r.copy()
+
+    def evaluate_residual(self, u, p):
+        """The residual at ``(u, p)``, assembled (NaN where an element inverts)."""
+        r, jmin = timed(self.stats, "assembly_s", self.problem_at(p).residual, self.full(u, p),
+                        self.gravity(p))
+        self.stats.residual_evaluations += 1
+        return r[self.free] if jmin > 0 else np.full(self.n, np.nan)
+
+    def jacobian(self, u, p):
+        w = self.full(u, p)
+        self._matrix = (w, p, True)
+        return timed(self.stats, "assembly_s", self.problem_at(p).tangent, w)
+
+    def factorize_on(self, slot: SolverSlot, K, w):
+        """Factorise ``K`` (formed at the state ``w``) on ``slot``'s solver."""
+        try:
+            timed(self.stats, "linear_solve_s", slot.solver.factorize, K, w)
+        except LinearSolverError as err:
+            raise EngineFailure(f"singular tangent ({err})") from None
+        self.stats.factorizations += 1
+        slot.generation += 1
+
+    def factorize(self, J):
+        w, p, exact = self._matrix if self._matrix is not None else (None, None, True)
+        slot = self._slots[self._next]
+        self._next = (self._next + 1) % len(self._slots)
+        self.factorize_on(slot, J, w)
+        return Factorization(self, slot, J, w, p, exact)
+
+    def held(self, u, p):
+        """The factorisation the first solver holds now, taken as the tangent
+        at ``(u, p)`` (e.g. left by a load path or by
+        :func:`skfem_sheet.newton.newton` at its converged state);
+        refactorised from the tangent there if the solver factorises
+        something else before it is used."""
+        return Factorization(self, self._slots[0], None, self.full(u, p), p, True)
+
+    def solver_used(self):
+        """Say that :attr:`solver` was used from outside (a load path
+        factorised on it): factorisations made before are no longer held."""
+        self._slots[0].generation += 1
+
+    def dual(self, a):
+        c = np.zeros_like(a)
+        c[self._u_free] = self._theta * a[self._u_free]
+        c[self.tip_index] += a[self.tip_index]
+        return c
+
+    def residual_norm(self, r):
+        return float(np.linalg.norm(r)) / self._rref
+
+    def correction_norm(self, du):
+        du = np.asarray(du)[self._u_free]
+        return float(np.abs(du).max()) if du.size else 0.0
+
+    def clamp_rate_residual(self, u, p):
+        """``dR/d(a/R)`` at fixed free dofs: the clamp coupling times the rate
+        of the clamp values (exact)."""
+        prob = self.problem_at(p)
+        w = self.full(u, p)
+        return timed(self.stats, "assembly_s", prob.clamp_coupling, w) @ prob.clamp_rate(
+            self.kappa(p))
+
+
+class SheetLoadProblem(SheetEngineProblem):
     """One discrete sheet as an engine problem in ``p = (curvature, gravity)``.
 
     Parameters
@@ -97,60 +291,23 @@ class SheetLoadProblem(Problem):
 
     def __init__(self, problem, solver, stats: Stats | None = None,
                  newton_options: NewtonOptions | None = None):
-        self.problem, self.solver = problem, solver
-        self.stats = stats if stats is not None else Stats()
+        self.problem = problem
         self.options = newton_options or NewtonOptions()
-        self.free = problem.free
-        self.n = len(self.free)
-        self.nu_dof = problem.nu_dof
-        self._u_free = self.free < problem.nu_dof
-        self._theta = 1.0 / max(1, int(np.count_nonzero(self._u_free)))
-        self._rref = float(np.linalg.norm(problem.gravity_load[self.free]))
+        super().__init__(problem, [solver], stats)
         self._weight = problem.gravity_load[self.free]
-        tip_nodes = free_edge_nodes(problem)
-        tip = 3 * tip_nodes[np.argmin(np.abs(problem.nodes[tip_nodes, 1]))] + 2
-        self._tip = int(np.searchsorted(self.free, tip))
-        self._fixed = None
-        self._last = None  # (key, residual) of the last residual
-        self._matrix = None  # (state, exact) of the last matrix assembled
-        self.generation = 0  # factorisations made on the solver
 
-    # -- states --------------------------------------------------------------
-    def full(self, u, p):
-        """The full dof vector: ``u`` on the free dofs, the clamp values of
-        the curvature ``p[0]``."""
-        kappa = float(p[0])
-        if self._fixed is None or self._fixed[0] != kappa:
-            w = np.zeros(self.problem.ndof)
-            w[self.problem.clamp_dofs] = self.problem.clamp_values(kappa)
-            self._fixed = (kappa, w)
-        w = self._fixed[1].copy()
-        w[self.free] = u
-        return w
+    def problem_at(self, p):
+        return self.problem
 
-    def deflection(self, u, p):
-        """Tip deflection d/a (positive downward) of the state ``u`` at ``p``."""
-        return tip_deflection(self.problem, self.full(u, p))
+    def kappa(self, p) -> float:
+        return float(p[0])
+
+    def gravity(self, p) -> float:
+        return float(p[1])
 
     def energy(self, u, p):
         """Total potential energy at ``(u, p)``."""
         return self.problem.energy(self.full(u, p), float(p[1]))
-
-    # -- protocol ------------------------------------------------------------
-    def residual(self, u, p):
-        key = (float(p[0]), float(p[1]))
-        if self._last is not None and self._last[0] == key and np.array_equal(self._last[1], u):
-            return self._last[2]
-        r, jmin = timed(self.stats, "assembly_s", self.problem.residual, self.full(u, p), key[1])
-        self.stats.residual_evaluations += 1
-        r = r[self.free] if jmin > 0 else np.full(self.n, np.nan)
-        self._last = (key, np.array(u, dtype=float), r)
-        return r
-
-    def jacobian(self, u, p):
-        w = self.full(u, p)
-        self._matrix = (w, True)
-        return timed(self.stats, "assembly_s", self.problem.tangent, w)
 
     def newton_jacobian(self, u, p, previous):
         """The matrix of a Newton correction at ``u`` whose previous iterate
@@ -164,49 +321,13 @@ class SheetLoadProblem(Problem):
             du = np.asarray(u)[self._u_free] - np.asarray(previous)[self._u_free]
             if du.size and float(np.abs(du).max()) > self.options.mip_threshold:
                 ref = self.full(previous, p)
-        self._matrix = (w, ref is None)
+        self._matrix = (w, p, ref is None)
         return timed(self.stats, "assembly_s", self.problem.tangent, w, ref)
-
-    def _factorize(self, K, w):
-        try:
-            timed(self.stats, "linear_solve_s", self.solver.factorize, K, w)
-        except LinearSolverError as err:
-            raise EngineFailure(f"singular tangent ({err})") from None
-        self.stats.factorizations += 1
-        self.generation += 1
-
-    def factorize(self, J):
-        w, exact = self._matrix if self._matrix is not None else (None, True)
-        self._factorize(J, w)
-        return _Factorization(self, J, w, exact)
-
-    def held(self, u, p):
-        """The factorisation the solver holds now, taken as the tangent at
-        ``(u, p)`` (e.g. left by :func:`skfem_sheet.newton.newton` at its
-        converged state); refactorised from the tangent there if the solver
-        factorises something else before it is used."""
-        return _Factorization(self, None, self.full(u, p), True)
 
     def dresidual(self, u, p, i):
         if i == 1:
             return self._weight
-        prob = self.problem
-        w = self.full(u, p)
-        return timed(self.stats, "assembly_s", prob.clamp_coupling, w) @ prob.clamp_rate(
-            float(p[0]))
-
-    def dual(self, a):
-        c = np.zeros_like(a)
-        c[self._u_free] = self._theta * a[self._u_free]
-        c[self._tip] += a[self._tip]
-        return c
-
-    def residual_norm(self, r):
-        return float(np.linalg.norm(r)) / self._rref
-
-    def correction_norm(self, du):
-        du = np.asarray(du)[self._u_free]
-        return float(np.abs(du).max()) if du.size else 0.0
+        return self.clamp_rate_residual(u, p)
 
 
 class LoadPhase(Problem):

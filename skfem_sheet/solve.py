@@ -9,15 +9,15 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from functools import lru_cache
 
 import numpy as np
 
 from .analyses.observables import tip_deflection
 from .analyses.sensitivity import check_parameters, state_sensitivities
+from .build import BuildChain
 from .continuation import PATHS, StepOptions
 from .linalg import make_linear_solver
-from .mesh import estimate_dofs, sheet_mesh
+from .mesh import estimate_dofs
 from .newton import NewtonOptions, Stats, polish
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
@@ -38,24 +38,24 @@ def _back_substitutions(linear) -> int:
 
 
 def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int = 2,
-                  half: bool = False, refine: int = 0) -> SheetProblem:
+                  half: bool = False, refine: int = 0, *,
+                  chain: BuildChain | None = None) -> SheetProblem:
     """The discrete problem :func:`solve` solves: ``sheet`` on its mesh
     (:func:`~skfem_sheet.mesh.sheet_mesh` with ``hmax``, ``layers``,
-    ``half``, ``refine``), cached (the same arguments give the same object).
+    ``half``, ``refine``), built by ``chain`` (its mesh, space and assembler
+    reused if it kept them) or, without one, afresh.
 
     Examples
     --------
-    >>> p = build_problem(Sheet(length=0.5), 0.15, None, 2, half=True)
-    >>> p.sheet_mesh.half, p is build_problem(Sheet(length=0.5), 0.15, None, 2, half=True)
+    >>> chain = BuildChain()
+    >>> p = build_problem(Sheet(length=0.5), 0.15, None, 2, half=True, chain=chain)
+    >>> q = build_problem(Sheet(length=0.5, curvature=2.0), 0.15, None, 2, half=True,
+    ...                   chain=chain)
+    >>> p.sheet_mesh.half, p.assembler is q.assembler
     (True, True)
     """
-    return _cached_problem(sheet, hmax, layers, quadrature_order, half, refine)
-
-
-@lru_cache(maxsize=8)
-def _cached_problem(sheet, hmax, layers, quadrature_order, half, refine):
-    return SheetProblem(sheet, sheet_mesh(sheet, hmax, layers, half=half, refine=refine),
-                        quadrature_order)
+    return (chain if chain is not None else BuildChain(0)).problem(
+        sheet, hmax, layers, quadrature_order, half, refine)
 
 
 def _branch(path, snaps):
@@ -73,7 +73,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False, series=None,
           start="coarse", coarse_hmax: float = 0.1,
-          gravity: float = 1.0, sensitivities=()) -> Result:
+          gravity: float = 1.0, sensitivities=(), chain: BuildChain | None = None) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -145,6 +145,12 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         parameter with the solve's factorisation, plus the residual's
         derivative in each).  ``Result.sensitivities`` holds them (None
         without; not counted in ``wall_time_s``).
+    chain : BuildChain, optional
+        Builds the meshes, spaces and assemblers of the solve (its own and the
+        coarse start's) and keeps them for the next solve given the same
+        chain (:mod:`skfem_sheet.build`): a study solving many sheets on few
+        meshes passes one.  Default: a chain of this solve's own, dropped
+        with it.
 
     Returns
     -------
@@ -175,6 +181,10 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     sensitivities = check_parameters(sensitivities, sheet)
     if series is not None and not callable(getattr(series, "on_step", None)):
         raise ParameterError(f"series must be a skfem_sheet.io.Series, got {series!r}")
+    if chain is not None and not isinstance(chain, BuildChain):
+        raise ParameterError(f"chain must be a skfem_sheet.build.BuildChain or None, got "
+                             f"{type(chain).__name__}")
+    chain = chain if chain is not None else BuildChain(max_meshes=2)
     ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric, refine=refine)
     if ndofs > MAX_DOFS:
         what = f"hmax={hmax:g}" + (f" with refine={refine}" if refine else "")
@@ -192,7 +202,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
 
     t0 = time.perf_counter()
     stats = Stats()
-    problem = build_problem(sheet, hmax, layers, quadrature_order, bool(symmetric), int(refine))
+    problem = build_problem(sheet, hmax, layers, quadrature_order, bool(symmetric), int(refine),
+                            chain=chain)
     if getattr(linear, "needs_layout", False):  # the saddle-point structure (pyamg)
         linear.attach(problem.saddle_point_layout())
     bar = None
@@ -222,7 +233,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
               solver=solver, newton_options=newton_options, step_options=step_options,
               stats=stats, report=report, on_step=None if series is None else on_step,
               build=lambda h: build_problem(sheet, h, None, quadrature_order, bool(symmetric),
-                                            0))
+                                            0, chain=chain))
     try:
         out = strategy.reach(job)
     finally:

@@ -27,20 +27,22 @@ LAYERS = {
     "engine/": 1,             # the continuation engine: generic, imports only params
     "discretisation.py": 2,   # TaylorHoodSpace: bases, dof layout, split/join, dof sets
     "kernels.py": 3,          # material kernels (pure numpy)
-    "assembly.py": 4,         # Assembler: sparsity pattern, buffers, threads
+    "assembly.py": 4,         # Assembler: sparsity pattern, buffers, its own threads
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
+    "build.py": 5,            # BuildChain: the meshes, spaces, assemblers a solve or study keeps
     "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
     "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface,
                               # sensitivities of a solved state and of a fold
     "reduced/": 9,            # reduced-order models
-    "sheet_engine.py": 9,     # the sheet as an engine problem in its loads (SheetLoadProblem)
+    "sheet_engine.py": 9,     # the sheet as an engine problem: Factorization, SheetLoadProblem
     "continuation.py": 10,    # load paths (follow_path): continuation in the loads, snaps
+    "sheet_shape.py": 10,     # the sheet as an engine problem in (L, b, a/R), the remesh rule
     "result.py": 11,          # Result, Result.to_record, StartRecord, SolveError
     "starts.py": 11,          # the start strategies (PathStart, CoarseStart)
     "solve.py": 11,           # solve: the facade
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
-    "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
+    "foldcurve/": 12,         # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
     "__init__.py": 12,        # the package's facade (Sheet, solve, Result, calibrate, ...)
     "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections

@@ -115,6 +115,32 @@ def test_concurrent_assemblies_on_a_shared_assembler_equal_serial_ones():
             assert np.array_equal(fr.result()[0], ref[id(x)][1])
 
 
+def test_element_threads_belong_to_the_assembler(monkeypatch):
+    """No process-wide pool: an assembler's threads start at its first
+    assembly split into chunks and end when the assembler is dropped."""
+    import gc
+    import threading
+    import time
+
+    def ours():
+        return [t for t in threading.enumerate() if t.name.startswith("skfem_sheet")]
+
+    monkeypatch.setattr(assembly, "THREAD_MIN_ELEMENTS", 1)
+    monkeypatch.setattr(assembly, "threads", lambda: 2)
+    before = len(ours())
+    pb = build_problem(Sheet(length=0.8), 0.25, None, 2, half=True)
+    K = pb.tangent(np.zeros(pb.ndof))
+    assert len(ours()) > before
+    assert pb.assembler.workspace.executor() is pb.assembler.workspace.executor()
+    del pb, K
+    for _ in range(100):
+        gc.collect()
+        if len(ours()) == before:
+            break
+        time.sleep(0.02)
+    assert len(ours()) == before
+
+
 def test_problem_pickles_and_assembles_the_same():
     import pickle
 

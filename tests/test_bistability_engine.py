@@ -3,24 +3,22 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet
-from skfem_sheet.bistability import (
-    _chord_linearization,
-    _SheetBranchProblem,
-    _Stretched,
-    _tolerances,
-)
-from skfem_sheet.continuation import follow_path
+from skfem_sheet.bistability import _chord_linearization, _tolerances
 from skfem_sheet.engine import correct
 from skfem_sheet.engine.protocol import Counting
+from skfem_sheet.sheet_shape import SheetShapeProblem
+
+
+def _branch_problem(sheet, name):
+    return SheetShapeProblem(sheet, 0.25, parameters=(name,), geometry="stretch")
 
 
 @pytest.fixture(scope="module")
 def solved():
     sheet = Sheet(length=0.8, curvature=2.0)
-    track = _Stretched(sheet, 0.25, None, "auto", True)
-    out = follow_path(track.at(0.8), "curvature-first", 2.0, track.solver)
+    out = _branch_problem(sheet, "L").along_path([0.8], "curvature-first")
     assert out.converged
-    return sheet, track, out.w
+    return sheet, out.w
 
 
 @pytest.mark.parametrize("name, p", [("a/R", 2.0), ("L", 0.8)])
@@ -28,8 +26,8 @@ def test_parameter_derivative_of_the_residual_is_a_difference_quotient(solved, n
     """dR/dp at fixed free dofs: the clamp rate coupled into the free rows
     (a/R, exact) and a central difference on the stretch (L) agree with a
     wide central difference of the residual."""
-    sheet, track, w = solved
-    P = _SheetBranchProblem(track, name, sheet.length, sheet.curvature)
+    sheet, w = solved
+    P = _branch_problem(sheet, name)
     u = w[P.free]
     h = 1e-4
     fd = (P.residual(u, np.array([p + h])) - P.residual(u, np.array([p - h]))) / (2 * h)
@@ -41,8 +39,8 @@ def test_chord_rule_returns_a_converged_state_as_it_is(solved):
     """From a converged state the corrector spends one factorisation (the
     first linearisation) and, at the confirming back-substitution, stops and
     returns the iterate it reached; from a perturbed one it converges back."""
-    sheet, track, w = solved
-    P = _SheetBranchProblem(track, "L", sheet.length, sheet.curvature)
+    sheet, w = solved
+    P = _branch_problem(sheet, "L")
     C = Counting(P)
     p = np.array([sheet.length])
     u = w[P.free]

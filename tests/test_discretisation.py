@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet
-from skfem_sheet.discretisation import taylor_hood_space
+from skfem_sheet.build import BuildChain
+from skfem_sheet.discretisation import TaylorHoodSpace
 from skfem_sheet.mesh import sheet_mesh
 from skfem_sheet.params import ParameterError
 from skfem_sheet.problem import SheetProblem
@@ -24,7 +25,7 @@ def test_half_problem_has_symmetry_plane_fixed():
 def test_dof_sets_partition_and_displacements_come_first():
     s = Sheet(length=0.8, tip_width=0.5, curvature=2.0)
     for half in (False, True):
-        V = taylor_hood_space(sheet_mesh(s, 0.2, layers=2, half=half))
+        V = TaylorHoodSpace.build(sheet_mesh(s, 0.2, layers=2, half=half))
         assert V.ndof == 3 * V.n_nodes + V.n_vertices == V.nu_dof + V.n_vertices
         assert np.array_equal(np.sort(np.concatenate([V.free, V.fixed])), np.arange(V.ndof))
         assert np.all(np.diff(V.free) > 0)
@@ -40,7 +41,7 @@ def test_dof_sets_partition_and_displacements_come_first():
 
 def test_split_and_join_are_inverse():
     s = Sheet(length=0.8, tip_width=0.5, curvature=2.0)
-    V = taylor_hood_space(sheet_mesh(s, 0.2, layers=2))
+    V = TaylorHoodSpace.build(sheet_mesh(s, 0.2, layers=2))
     w = np.random.default_rng(0).normal(size=V.ndof)
     U, p = V.split(w)
     assert U.shape == (V.n_nodes, 3) and p.shape == (V.n_vertices,)
@@ -52,7 +53,7 @@ def test_split_and_join_are_inverse():
 
 def test_stretched_space_is_always_one_stretch_of_the_reference():
     s = Sheet(length=1.0, tip_width=0.6, curvature=1.5)
-    V = taylor_hood_space(sheet_mesh(s, 0.2, layers=2, half=True))
+    V = TaylorHoodSpace.build(sheet_mesh(s, 0.2, layers=2, half=True))
     assert V.reference is None and V.length == V.mesh.length
     W = V.stretched(1.2).stretched(1.3)
     direct = V.stretched(1.3)
@@ -71,14 +72,18 @@ def test_stretched_space_is_always_one_stretch_of_the_reference():
 @pytest.mark.parametrize("length", [0.0, -1.0, float("nan")])
 def test_bad_stretch_length(length):
     s = Sheet(length=1.0)
-    V = taylor_hood_space(sheet_mesh(s, 0.2, layers=2, half=True))
+    V = TaylorHoodSpace.build(sheet_mesh(s, 0.2, layers=2, half=True))
     with pytest.raises(ParameterError, match="length"):
         V.stretched(length)
 
 
-def test_space_is_cached_per_mesh_and_order():
+def test_space_is_kept_per_mesh_and_order_by_a_chain():
     s = Sheet(length=1.0)
-    m = sheet_mesh(s, 0.2, layers=2, half=True)
-    assert taylor_hood_space(m) is taylor_hood_space(m, 2)
-    assert taylor_hood_space(m, 4) is not taylor_hood_space(m)
-    assert taylor_hood_space(m, 4).dx.shape[1] > taylor_hood_space(m).dx.shape[1]
+    chain = BuildChain()
+    m = chain.mesh(s, 0.2, layers=2, half=True)
+    assert chain.space(m) is chain.space(m, 2)
+    assert chain.space(m, 4) is not chain.space(m)
+    assert chain.space(m, 4).dx.shape[1] > chain.space(m).dx.shape[1]
+    # a mesh the chain does not keep: a space built afresh every time
+    other = sheet_mesh(s, 0.2, layers=2, half=True)
+    assert chain.space(other) is not chain.space(other)

@@ -20,7 +20,7 @@ def coarse():
 
 
 def _state(problem, scale=1e-5, seed=0):
-    base = problem._sheet.base
+    base = problem.base
     w = np.random.default_rng(seed).normal(size=base.ndof) * scale
     w[base.clamp_dofs] = base.clamp_values(2.5)
     return w
@@ -28,11 +28,11 @@ def _state(problem, scale=1e-5, seed=0):
 
 def test_mapped_mesh_is_the_stretched_mesh_at_full_width(coarse):
     """At b = b_m the map is the x stretch of with_length: same residual and tangent."""
-    base = coarse._sheet.base
+    base = coarse.base
     w = _state(coarse)
     for L in (1.3, 1.45):
         ref = base.with_length(L)
-        got = coarse._sheet.at(L, 1.0)
+        got = coarse.at(L, 1.0)
         r_ref, r_got = ref.residual(w, 1.0)[0], got.residual(w, 1.0)[0]
         assert np.abs(r_got - r_ref).max() <= 1e-10 * np.abs(r_ref).max()
         dK = abs(got.tangent(w) - ref.tangent(w)).max()
@@ -43,11 +43,11 @@ def test_mapped_mesh_is_the_exact_trapezoid(coarse):
     """Mapping in y puts the side vertices on y = p_b(x)/2 and keeps the clamp;
     the mapped problem equals a problem built afresh on the mapped mesh."""
     L, b = 1.25, 0.6
-    q = coarse._sheet.at(L, b)
+    q = coarse.at(L, b)
     p = q.sheet_mesh.mesh.p
     width = 0.5 * (1 + (b - 1) * p[0] / L)
     assert np.all(p[1] <= width + 1e-12)
-    base_p = coarse._sheet.base.sheet_mesh.mesh.p
+    base_p = coarse.base.sheet_mesh.mesh.p
     on_side = np.abs(base_p[1] - 0.5) < 1e-12  # side of the rectangle (y = 1/2)
     np.testing.assert_allclose(p[1, on_side], width[on_side], atol=1e-12)
     clamp = base_p[0] == 0
@@ -206,7 +206,7 @@ def test_memory_does_not_grow_with_the_number_of_points(coarse, coarse_fold):
     finally:
         tracemalloc.stop()
     assert len(short.points) == 3 and len(long.points) == 9
-    state_bytes = 8 * coarse._sheet.base.ndof
+    state_bytes = 8 * coarse.base.ndof
     # retained: less than half a state per extra point (no states kept; the
     # cache of mapped problems, full after the first run, only turns over)
     assert m12 - m3 < 0.5 * state_bytes * 6
@@ -357,9 +357,9 @@ def test_a_remesh_along_the_curve_keeps_the_folds_of_the_new_mesh(monkeypatch):
     hmax 0.2: 1.23170827 by the trace, 1.23170823 directly (and 1.2183 on
     the default mesh made at 1.296: the mesh difference, see
     test_remeshed_curve_agrees_with_the_curve_on_its_mesh)."""
-    import skfem_sheet.foldcurve as fc
+    import skfem_sheet.sheet_shape as shape
 
-    monkeypatch.setattr(fc, "REMESH_SQUEEZE", 0.8)
+    monkeypatch.setattr(shape, "REMESH_SQUEEZE", 0.8)  # read by SheetShapeProblem.remesh_box
     c = trace_fold_curve(2.5, hmax=COARSE, check_inertia=0)
     assert c.completed and c.remeshes == 1 and len(c.meshes) == 2
     L_m, b_m = c.meshes[-1]

@@ -13,13 +13,8 @@ from skfem_sheet.engine import (
     locate_fold,
 )
 from skfem_sheet.engine.fold import equilibrium_on_section
-from skfem_sheet.foldcurve import (
-    CUSP_TOL,
-    SheetFoldProblem,
-    _cusp_by_coefficient,
-    _Kept,
-    trace_fold_curve,
-)
+from skfem_sheet.foldcurve import CUSP_TOL, KeptPoint, SheetFoldProblem, trace_fold_curve
+from skfem_sheet.foldcurve.cusp import cusp_by_coefficient
 from skfem_sheet.io import Series, read_pvd
 from skfem_sheet.params import ParameterError
 
@@ -36,7 +31,7 @@ class _ToyCusp(FunctionProblem):
     deflection: equilibria ``y = x``, ``x^3 - b x - L = 0``, folds at ``(L, b) = (-2 c^3, 3 c^2)``,
     ``x = y = c``, the cusp at the origin."""
 
-    _tip = 1
+    tip_index = 1
     refactorizations = 0
 
     def __init__(self):
@@ -54,7 +49,7 @@ def _toy_points(P, cs):
                                  ("L", "b"), (np.array([0.0, 1.0]), np.zeros(2), c),
                                  v0=np.ones(2))
         assert f is not None, res.reason
-        out.append(_Kept(P, f.p, f.u, f.v, f.a, f.side, float(f.u[1])))
+        out.append(KeptPoint(P, f.p, f.u, f.v, f.a, f.side, float(f.u[1])))
     return out
 
 
@@ -65,12 +60,12 @@ def test_cusp_of_refined_points_is_located_where_the_fold_coefficient_vanishes()
     3 c^2 is stationary there), a few corrections; no sign change: none."""
     P = _ToyCusp()
     points = _toy_points(P, [0.045, 0.04, 0.035, -0.3])
-    cusp, spent = _cusp_by_coefficient(points, 1, Tolerances(rtol=1e-10, utol=1e-10))
+    cusp, spent = cusp_by_coefficient(points, 1, Tolerances(rtol=1e-10, utol=1e-10))
     assert cusp is not None
     assert abs(cusp["tip_width"]) < CUSP_TOL
     assert abs(cusp["length"]) < 1e-5
     assert 0 < spent <= 40
-    assert _cusp_by_coefficient(points[:3], 1, Tolerances()) == (None, 0)
+    assert cusp_by_coefficient(points[:3], 1, Tolerances()) == (None, 0)
 
 
 def test_mapped_space_gives_the_residual_and_tangent_of_a_built_space():
@@ -78,8 +73,8 @@ def test_mapped_space_gives_the_residual_and_tangent_of_a_built_space():
     scikit-fem builds there: same residual and tangent (a squeezed, stretched
     trapezoid)."""
     P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
-    fast, built = P._sheet.at(1.4, 0.7), P._sheet.at(1.4, 0.7, bases=True)
-    w = P.full(np.random.default_rng(1).normal(size=len(P._sheet.free)) * 1e-3, [1.4, 0.7])
+    fast, built = P.at(1.4, 0.7), P.at(1.4, 0.7, bases=True)
+    w = P.full(np.random.default_rng(1).normal(size=P.n) * 1e-3, [1.4, 0.7])
     r1, r2 = fast.residual(w, 1.0)[0], built.residual(w, 1.0)[0]
     np.testing.assert_allclose(r1, r2, rtol=1e-10, atol=1e-12 * np.abs(r2).max())
     K1, K2 = fast.tangent(w), built.tangent(w)
@@ -153,7 +148,7 @@ def test_fold_curve_series_reads_back_with_meshio(tmp_path):
     times = [t for t, _ in steps]
     assert np.all(np.diff(times) > 0)
     P = SheetFoldProblem(2.5, hmax=COARSE, mesh_length=1.3)
-    n_half = P._sheet.base.sheet_mesh.n_vertices
+    n_half = P.base.sheet_mesh.n_vertices
     for (_t, path), pt in zip(steps, c.points):
         m = meshio.read(path)
         assert n_half < len(m.points) < 2 * n_half  # mirrored: the whole sheet

@@ -37,15 +37,15 @@ def test_mirror_symmetry_and_determinism():
         image = tuple(sorted(key[(round(xy[i, 0], 12), round(-xy[i, 1], 12))] for i in t))
         assert image in tris
     m1 = sheet_mesh(s, 0.1)
-    from skfem_sheet import mesh as mesh_module
-
-    mesh_module._half_plan.cache_clear()
-    mesh_module._cached_mesh.cache_clear()
-    m2 = sheet_mesh(s, 0.1)
+    m2 = sheet_mesh(s, 0.1)  # made afresh (nothing is cached), the same mesh
     assert m1 is not m2
     np.testing.assert_array_equal(m1.mesh.p, m2.mesh.p)
     np.testing.assert_array_equal(m1.mesh.t, m2.mesh.t)
-    assert sheet_mesh(s, 0.1) is m2  # cached
+    from skfem_sheet.build import BuildChain
+
+    chain = BuildChain()
+    assert chain.mesh(s, 0.1) is chain.mesh(s, 0.1)  # a chain keeps it
+    np.testing.assert_array_equal(chain.mesh(s, 0.1).mesh.p, m2.mesh.p)
 
 
 def test_triangle_tip_and_midline_nodes():
@@ -173,9 +173,14 @@ def test_refine_layers_cache_and_estimate():
     s = Sheet(length=1.0)
     assert sheet_mesh(s, 0.1, refine=1).layers == 2 * default_layers(s.thickness, 0.1)
     assert sheet_mesh(s, 0.2, layers=3, refine=2).layers == 12
-    m0, m1 = sheet_mesh(s, 0.2, refine=0), sheet_mesh(s, 0.2, refine=1)
-    assert m0 is not m1 and sheet_mesh(s, 0.2, refine=1) is m1   # refine is in the cache key
-    assert sheet_mesh(s, 0.2) is m0
+    from skfem_sheet.build import BuildChain
+    from skfem_sheet.mesh import MeshSpec
+
+    chain = BuildChain()
+    m0, m1 = chain.mesh(s, 0.2, refine=0), chain.mesh(s, 0.2, refine=1)
+    assert m0 is not m1 and chain.mesh(s, 0.2, refine=1) is m1   # refine is in the key
+    assert chain.mesh(s, 0.2) is m0
+    assert MeshSpec.of(s, 0.2, refine=1) != MeshSpec.of(s, 0.2)
     n0, n1 = (estimate_dofs(s, 0.2, 2, half=True, refine=k) for k in (0, 1))
     assert 7.0 < n1 / n0 < 8.5   # P2 unknowns grow a little less than 8x (boundary)
     n = SheetProblem(s, sheet_mesh(s, 0.1, refine=1)).ndof

@@ -337,7 +337,7 @@ def test_reduced_models_on_valid_sheets_pass_their_checks(name, sheet):
 @pytest.fixture
 def no_heavy_work(monkeypatch):
     monkeypatch.setattr(sys.modules["skfem_sheet.solve"], "build_problem", _reached)
-    monkeypatch.setattr(sys.modules["skfem_sheet.bistability"], "_Stretched", _reached)
+    monkeypatch.setattr(sys.modules["skfem_sheet.bistability"], "SheetShapeProblem", _reached)
     monkeypatch.setattr(sys.modules["skfem_sheet.studies.sweep"], "execute", _reached)
     monkeypatch.setattr(sys.modules["skfem_sheet.reduced.elastica"], "solve_bvp", _reached)
     monkeypatch.setattr(sys.modules["skfem_sheet.reduced.ribbon"], "ribbon", _reached)

@@ -1,0 +1,128 @@
+"""What a fold-curve trace is asked for (:class:`FoldCurveOptions`), and its fixed rules."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..engine import Tolerances
+from ..sheet_shape import TOLERANCES
+
+__all__ = ["FINE_TOLERANCES", "MAX_REMESHES", "PREDICTOR", "REFILL_DS", "SECOND",
+           "TARGET_CORRECTION", "TOLERANCES", "FoldCurveOptions", "default_start_length",
+           "kind"]
+
+#: Predictor of the fold-curve continuation (see :func:`skfem_sheet.engine.fold_curve`).
+#: Measured at hmax 0.1 (a/R 2.5): the quadratic predictor with step control
+#: by the first correction halves the points (30 instead of 57) but not the
+#: factorisations (335 instead of 362): Newton's basin for the thin sheet is
+#: small (a first correction above about 0.005 a diverges, the membrane
+#: stiffness turning small predictor errors into residuals of the order of
+#: the weight), so longer steps fail and are halved.  Hence the tangent
+#: predictor with the iteration-count rule.
+PREDICTOR = "tangent"
+#: Step control by the first correction (None: by the iteration count).
+TARGET_CORRECTION = None
+#: Largest number of remeshes of one trace.
+MAX_REMESHES = 40
+
+#: The corrector's stopping rule for the points refined on a finer mesh (coarse
+#: to fine): the returned point is the iterate plus a correction below
+#: ``utol`` computed there, so that with Newton's quadratic convergence its
+#: error is of the order of ``utol^2`` (L/a to about 1e-9); the residual at
+#: that iterate may be larger than :data:`TOLERANCES` allows (a correction of
+#: 1e-5 a leaves residuals of 1e-2 of the weight), which saves the last
+#: linearisation of most points.
+FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3)
+
+#: First and largest arclength step of the continuation on a fine mesh
+#: that replaces an end which could not be refined
+#: (:func:`skfem_sheet.foldcurve.refine.continue_to_end`).
+REFILL_DS = (0.02, 0.2)
+
+#: The second parameter of a curve, by its index ``j`` in ``(L, b, a/R)``:
+#: ``(engine name, key of the curve's points)``.
+SECOND = {1: ("b", "tip_width"), 2: ("a/R", "curvature")}
+
+
+def kind(side) -> str:
+    """The kind of a fold from the side its branch exists on: ``"standout"``
+    (below the fold's length), ``"popup"`` (above) or ``"unknown"``.
+
+    Examples
+    --------
+    >>> kind(-1), kind(1), kind(0)
+    ('standout', 'popup', 'unknown')
+    """
+    return "standout" if side < 0 else "popup" if side > 0 else "unknown"
+
+
+def default_start_length(curvature: float) -> float:
+    """L/a of the first solve of a trace: below the pop-up length ``L0*(b = 1)``
+    of the rectangle (hmax 0.1: 0.83, 0.97, 1.09, 1.21, 1.42, 1.72 at a/R = 1,
+    1.5, 2, 2.5, 3.5, 5), so that the curvature-first solve is on the
+    curvature-dominated branch; 1.2 at a/R = 2.5.
+
+    Examples
+    --------
+    >>> [round(default_start_length(k), 3) for k in (1, 2.5, 5)]
+    [0.6, 1.2, 1.6]
+    """
+    k = float(curvature)
+    return float(min(1.2, 0.2 + 0.4 * k) if k <= 2.5 else 1.2 + 0.16 * (k - 2.5))
+
+
+@dataclass(frozen=True)
+class FoldCurveOptions:
+    """How one fold curve is traced: the options of
+    :func:`~skfem_sheet.foldcurve.trace_fold_curve` (which checks them), in one value.
+
+    Attributes
+    ----------
+    hmax : float
+        Mesh size of the curve (of its refined points, coarse to fine).
+    start_length : float or None
+        Length of the first solve, below ``L0*`` (None:
+        :func:`default_start_length`, kept inside ``length_range``).
+    length_range : (float, float)
+    thickness, modulus : float
+    layers : int or None
+    solver : str
+    ds, ds_max : float
+        First and largest arclength step.
+    check_inertia : bool or int
+    mesh_length : float or None
+        Length of the first mesh (None: ``1.08 start_length``).
+    max_points : int
+    progress : bool
+    coarse_hmax : float, sequence of float or None
+        Coarse to fine: the coarse mesh size(s).
+    fine_points : int
+
+    Examples
+    --------
+    >>> o = FoldCurveOptions(hmax=0.2)
+    >>> o.length_range, o.check_inertia
+    ((0.6, 2.4), 10)
+    """
+
+    hmax: float = 0.1
+    start_length: float | None = None
+    length_range: tuple = (0.6, 2.4)
+    thickness: float = 0.03
+    modulus: float = 735.0
+    layers: int | None = None
+    solver: str = "auto"
+    ds: float = 0.05
+    ds_max: float = 0.4
+    check_inertia: object = 10
+    mesh_length: float | None = None
+    max_points: int = 400
+    progress: bool = False
+    coarse_hmax: object = None
+    fine_points: int = 12
+
+    @property
+    def mesh_keywords(self) -> dict:
+        """What a fresh :class:`~skfem_sheet.sheet_shape.SheetFoldProblem` of
+        the curve takes besides the curvature and the mesh's shape."""
+        return dict(thickness=self.thickness, modulus=self.modulus, layers=self.layers,
+                    solver=self.solver)
