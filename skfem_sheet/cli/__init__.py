@@ -21,6 +21,8 @@ exposes ``register(subparsers)``, which adds the command's parser and sets
 Bad arguments give a one-line message naming the parameter and the allowed
 range, and exit code 2 (no traceback).  A solve that does not reach full load
 prints why and exits with code 1 (its JSON says ``"converged": false``).
+Ctrl-C exits with code 130 within about a second; a study (``sweep``,
+``fold-map``, ``figure``) says how many points it finished and kept, and where.
 """
 from __future__ import annotations
 
@@ -81,6 +83,6 @@ def main(argv=None) -> int:
     except ParameterError as err:
         print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{parser.prog} {args.command}: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as err:   # a study's says what it kept (StudyInterrupted)
+        print(f"{parser.prog} {args.command}: {err or 'interrupted'}", file=sys.stderr)
         return 130
