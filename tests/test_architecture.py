@@ -42,6 +42,7 @@ LAYERS = {
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
     "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
+    "states.py": 12,          # solve_both: both load paths, whether their states differ
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
     "plot.py": 14,            # drawing a solved sheet
