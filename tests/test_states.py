@@ -199,3 +199,56 @@ def test_bistability_says_what_it_is_about(monkeypatch, capsys, tmp_path):
     assert "is not bistable for any L/a in [0.6, 2.4]" in out
     assert "none in range (the curvature-dominated branch held to L/a = 2.4)" in out
     np.testing.assert_equal(seen["lengths"], (0.6, 2.4))
+
+
+# -- --si on every command that takes one sheet ---------------------------------------------
+class _Stop(Exception):
+    pass
+
+
+def test_fold_curve_si_gives_curvature_and_material_and_places_the_sheet(monkeypatch, capsys):
+    import skfem_sheet.cli.fold_curve as cli_fold_curve
+    seen = {}
+
+    def fake(curvature, **kw):
+        seen.update(kw, curvature=curvature)
+        raise _Stop
+
+    monkeypatch.setattr(cli_fold_curve, "trace_fold_curve", fake)
+    with pytest.raises(_Stop):
+        main(["fold-curve", "--si", SI.replace("tip_width=0.05", "tip_width=0.04"), "--quiet"])
+    assert seen["curvature"] == 2.5 and seen["thickness"] == pytest.approx(0.03175)
+    assert seen["modulus"] == pytest.approx(733.945, abs=1e-3)
+    assert "b/a = 0.8" in capsys.readouterr().out
+    assert main(["fold-curve", "--si", SI, "--thickness", "0.02"]) == 2
+    assert "--si cannot be combined with --thickness" in capsys.readouterr().err
+
+
+def test_place_a_sheet_against_a_fold_curve():
+    from types import SimpleNamespace
+
+    from skfem_sheet.cli.fold_curve import place
+
+    # standout from b 1 (L 1.35) down to the cusp (b 0.6, L 1.25), pop-up back to (1, 1.2)
+    pts = [dict(tip_width=b, length=L, kind=k) for b, L, k in [
+        (1.0, 1.35, "standout"), (0.8, 1.30, "standout"), (0.6, 1.25, "standout"),
+        (0.8, 1.22, "popup"), (1.0, 1.20, "popup")]]
+    curve = SimpleNamespace(second="tip_width", points=pts,
+                            cusp={"tip_width": 0.6, "length": 1.25})
+    assert place(curve, 1.26, 0.8)["where"] == "between"
+    assert place(curve, 1.26, 0.8)["states"] == 2
+    assert place(curve, 1.1, 0.8)["where"] == "below"
+    assert place(curve, 1.4, 0.8)["where"] == "above"
+    assert place(curve, 1.26, 0.5)["where"] == "beyond the cusp"
+    assert "L0* = 1.220, L1* = 1.300 at b/a = 0.8" in place(curve, 1.26, 0.8)["text"]
+
+
+@pytest.mark.parametrize("model", ["persistence", "cantilever", "elastica"])
+def test_rom_si(model, capsys):
+    assert main(["rom", model, "--si", SI]) == 0
+    out = capsys.readouterr().out
+    assert "L/a=1.3 b/a=1" in out and "h/a=0.03175 E=733.945" in out
+    if model == "elastica":
+        assert "a/R = 2.5 is left out" in out
+    assert main(["rom", model, "--si", SI, "--length", "1"]) == 2
+    assert "--si cannot be combined with --length" in capsys.readouterr().err
