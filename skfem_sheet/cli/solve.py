@@ -243,8 +243,8 @@ def run(args) -> int:
           + f"  ({status})")
     if result.converged:
         stable = {True: "stable", False: "unstable", None: "stability unknown"}[result.stable]
-        print(f"  {result.branch} branch (the one this load path selects), {stable}; "
-              f"--path both says whether the other path ends elsewhere (bistable)")
+        print(f"  {result.branch} branch (this load path's), {stable}; --path both tells "
+              f"whether the sheet is bistable")
     print(f"  {result.path}, {result.dofs} dofs{'' if result.symmetric else ' (whole sheet)'}, "
           f"{result.newton_iterations} Newton iterations "
           f"in {result.load_steps} load steps, {result.wall_time_s:.1f} s "
