@@ -264,6 +264,27 @@ def test_ctrl_c_stops_cleanly_and_keeps_finished_points(monkeypatch, tmp_path):
     assert [c[0] for c in again.calls] == [0.5, 0.6] and df.converged.all()
 
 
+def test_ctrl_c_right_after_a_journal_line_counts_that_point_as_kept(fake, monkeypatch,
+                                                                      tmp_path):
+    """Ctrl-C lands while a finished point's line is being written (the line is on disk,
+    the loop has not counted it): the message counts what the journal holds."""
+    table = tmp_path / "t.csv"
+    write = runner.Journal.append
+    calls = []
+
+    def append(self, rec):
+        write(self, rec)
+        calls.append(rec)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner.Journal, "append", append)
+    with pytest.raises(runner.StudyInterrupted) as info:
+        run_sweep(grid(length=[0.3, 0.4, 0.5]), table=table, workers=1, progress=False)
+    assert (info.value.finished, info.value.new) == (2, 2)
+    assert len(pd.read_csv(table)) == 2
+
+
 def test_parquet_table_has_the_same_contents(fake, tmp_path):
     pytest.importorskip("pyarrow")
     pts = grid(length=[0.5, 0.8, 0.9], path="both")

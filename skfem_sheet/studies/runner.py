@@ -482,6 +482,7 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
     todo = [by_key[k] for k in todo_keys]
     n_cached = len(order) - len(todo)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    before = {k: done[k].get("finished_at") for k in todo_keys if k in done}
 
     client, own_client = (None, False)
     if scheduler is not None:
@@ -531,13 +532,20 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
             journal.close()
         if own_client:
             client.close()
+        disk = None
         if table:
             # rebuilt from the journal file: also keeps lines appended by others
             disk = read_journal(jpath, key_of=job.key_of, required=job.required)
             write_table(job.frame(table_records(disk, order)), table)
     if interrupted:
-        raise StudyInterrupted(job.desc, finished=sum(1 for k in order if k in done),
-                               points=len(order), new=new, table=table, records=done) from None
+        # what is kept is what the journal holds (Ctrl-C may land between a line's
+        # write and its count here)
+        kept = done if disk is None else disk
+        raise StudyInterrupted(
+            job.desc, finished=sum(1 for k in order if k in kept), points=len(order),
+            new=sum(1 for k in todo_keys if k in kept
+                    and (k not in before or kept[k].get("finished_at") != before[k])),
+            table=table, records=kept) from None
     return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
                   "journal": jpath}
 
