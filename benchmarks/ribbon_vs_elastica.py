@@ -1,7 +1,12 @@
-"""The free-c ribbon model against the heavy elastica at zero clamp curvature, with the evidence.
+"""The reduced-order models: the free-c ribbon against the heavy elastica at zero clamp
+curvature, with the evidence; and (``--speed``) the models' speed.
 
 Run:  python benchmarks/ribbon_vs_elastica.py [--with-3d]
       (writes the tables to stdout; the recorded output is results/accuracy/ribbon_vs_elastica.txt)
+      python benchmarks/ribbon_vs_elastica.py --speed [--workers 2] [--quick]
+      (only the speed table: one ribbon solve at a new length by continuation, target
+      <= 0.2 s; the Fig. 6 map, 50 lengths x 50 shape factors, both continuation
+      directions, target <= 60 s on 2 cores; the other models)
 
 Sections: (1) the table ribbon / elastica - 1 for rectangle and triangle, split into the
 centre-of-mass drop -int sin phi and the tip term w(L,0) cos phi(L), and the same with
@@ -11,10 +16,21 @@ hmax 0.03 (one solve at a time, ~20-60 s each on 2 free cores).
 """
 from __future__ import annotations
 
+import os
+import statistics
+import time
+
 import numpy as np
 
 from skfem_sheet.params import POISSON_RATIO, Sheet
-from skfem_sheet.reduced import elastica, ribbon, ribbon_energy_terms
+from skfem_sheet.reduced import (
+    cantilever_deflection,
+    elastica,
+    persistence_length,
+    ribbon,
+    ribbon_energy_terms,
+    ribbon_map,
+)
 from skfem_sheet.reduced._ribbon_fem import make_mesh, make_operators, minimise
 from skfem_sheet.reduced.ribbon import _deflection, _free_mask
 
@@ -97,10 +113,71 @@ def three_d():
                   f"elastica/3d - 1 = {el / r.deflection - 1:+.3%}  dofs={r.dofs}", flush=True)
 
 
+def _timeit(fn, repeat=5):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def continuation_step_time(curvature=2.5, tip_width=1.0, n=40):
+    """Median time of one ribbon solve at L + 0.01 from the converged state at L."""
+    state = ribbon(Sheet(length=1.0, tip_width=tip_width, curvature=curvature))
+    times = []
+    for L in 1.0 + 0.01 * np.arange(1, n + 1):
+        sheet = Sheet(length=L, tip_width=tip_width, curvature=curvature)
+        t0 = time.perf_counter()
+        state = ribbon(sheet, initial=state)
+        times.append(time.perf_counter() - t0)
+        assert state.converged
+    return statistics.median(times), max(times)
+
+
+def speed(workers, quick):
+    rows = []
+    med, worst = continuation_step_time()
+    rows.append(("ribbon solve by continuation (median / max)", f"{med:.4f} / {worst:.4f} s",
+                 "<= 0.2 s", worst <= 0.2))
+    t = _timeit(lambda: ribbon(Sheet(length=1.3, curvature=2.5)), 3)
+    rows.append(("ribbon solve from scratch (load ramp)", f"{t:.4f} s", "", None))
+    t = _timeit(lambda: persistence_length(Sheet(length=1.5, tip_width=0.0, curvature=2.5)), 3)
+    rows.append(("persistence length (triangle)", f"{t:.4f} s", "", None))
+    t = _timeit(lambda: cantilever_deflection(Sheet(length=1.5, tip_width=0.0, curvature=2.5)), 3)
+    rows.append(("cantilever estimate", f"{t:.4f} s", "", None))
+    t = _timeit(lambda: elastica(Sheet(length=1.0)), 3)
+    rows.append(("heavy elastica L=1 (tol 1e-9)", f"{t:.4f} s", "", None))
+
+    n = 20 if quick else 50
+    t0 = time.perf_counter()
+    table = ribbon_map(2.5, np.linspace(0.8, 2.2, n), np.linspace(0.0, 1.0, n),
+                       workers=workers)
+    t_map = time.perf_counter() - t0
+    bad = sum(not r["converged"] for r in table)
+    rows.append((f"Fig. 6 map {n}x{n}, both directions, {workers} workers",
+                 f"{t_map:.1f} s ({len(table)} solves, {bad} not converged)",
+                 "<= 60 s" if n == 50 else "", (t_map <= 60) if n == 50 else None))
+
+    w = max(len(r[0]) for r in rows)
+    print(f"{'benchmark':<{w}}  {'time':<40} {'target':<9} ok")
+    for name, val, target, ok in rows:
+        flag = "" if ok is None else ("yes" if ok else "NO")
+        print(f"{name:<{w}}  {val:<40} {target:<9} {flag}")
+
+
 def main(argv=None) -> int:
     ap = parser(__doc__)
     ap.add_argument("--with-3d", action="store_true", help="also run the 3D solver")
+    ap.add_argument("--speed", action="store_true",
+                    help="only the speed of the reduced models (was reduced_speed.py)")
+    ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                    help="processes of the --speed map")
+    ap.add_argument("--quick", action="store_true", help="--speed: a 20 x 20 map, not 50 x 50")
     args = ap.parse_args(argv)
+    if args.speed:
+        speed(args.workers, args.quick)
+        return 0
     print(f"nu = {POISSON_RATIO}, h = 0.03, E/(rho g a) = 735\n")
     table()
     convergence()

@@ -29,10 +29,11 @@ _LAZY = {
     "PathStart": "skfem_sheet.starts",
     "NewtonOptions": "skfem_sheet.newton",
     "StepOptions": "skfem_sheet.continuation",
+    "calibrate": "skfem_sheet.calibration",
 }
 
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
-           "CoarseStart", "PathStart", "__version__"]
+           "CoarseStart", "PathStart", "calibrate", "__version__"]
 
 
 def __getattr__(name):

@@ -137,6 +137,12 @@ class Result:
     start_record : StartRecord
         How full load was reached (the start strategy, the coarse path's work,
         a fallback, the folds carried from the coarse mesh).
+    sensitivities : Sensitivities or None
+        Derivatives of the deflection, the energy and the tip angle with
+        respect to the parameters asked of ``solve(..., sensitivities=...)``
+        (:class:`~skfem_sheet.analyses.sensitivity.Sensitivities`;
+        ``sensitivities["modulus"]`` is dd/dE); None if none were asked or
+        the solve did not converge.
     """
 
     sheet: Sheet
@@ -170,6 +176,7 @@ class Result:
     polish_iterations: int = 0
     target_gravity: float = 1.0
     start_record: StartRecord = field(default_factory=StartRecord)
+    sensitivities: object = field(default=None, compare=False)
     problem: object = field(default=None, repr=False, compare=False)
     w: np.ndarray = field(default=None, repr=False, compare=False)
 
@@ -261,6 +268,8 @@ class Result:
         ("gravity", "float", lambda r: r.target_gravity),
         ("snaps", "str", lambda r: json.dumps(to_jsonable([s.to_json() for s in r.snaps]))),
         ("start_record", "str", lambda r: json.dumps(to_jsonable(r.start_record.to_json()))),
+        ("deflection_sensitivities", "str", lambda r: "" if r.sensitivities is None
+         else json.dumps(to_jsonable(r.sensitivities.of("deflection")))),
     )
 
     def to_record(self) -> dict:
@@ -317,11 +326,16 @@ class Result:
         out["solver"] = rec.pop("linear_solver")
         rec.pop("snaps")
         rec.pop("start_record")
+        rec.pop("deflection_sensitivities")
         out.update(rec)  # symmetric, branch, stable, ... and any field added to the record
         out["params"] = params
         out.update(snaps=[s.to_json() for s in self.snaps],
                    start_record=self.start_record.to_json(),
                    steps=[list(x) for x in self.steps], version=__version__)
+        if self.sensitivities is not None:
+            # d's derivatives by parameter name, and every output's with the cost
+            out["sensitivities"] = self.sensitivities.of("deflection")
+            out["sensitivity_report"] = self.sensitivities.to_json()
         return out
 
     def write(self, filename):

@@ -8,11 +8,13 @@ path itself is :func:`skfem_sheet.continuation.follow_path`'s.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
 
 from .analyses.observables import tip_deflection
+from .analyses.sensitivity import check_parameters, state_sensitivities
 from .continuation import PATHS, StepOptions
 from .linalg import make_linear_solver
 from .mesh import estimate_dofs, sheet_mesh
@@ -71,7 +73,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False, series=None,
           start="coarse", coarse_hmax: float = 0.1,
-          gravity: float = 1.0) -> Result:
+          gravity: float = 1.0, sensitivities=()) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
     Parameters
@@ -135,6 +137,14 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         The gravity load as a fraction of the sheet's own weight, in [0, 10]
         (default 1; 0: no gravity, the clamp's curvature alone, one phase
         on both paths).
+    sensitivities : iterable of str or str
+        Parameters to differentiate the converged state's outputs (tip
+        deflection, energy, tip angle) by: names from ``modulus``,
+        ``thickness``, ``curvature``, ``gravity``, ``length``, ``tip_width``
+        (:mod:`skfem_sheet.analyses.sensitivity`: one back-substitution per
+        parameter with the solve's factorisation, plus the residual's
+        derivative in each).  ``Result.sensitivities`` holds them (None
+        without; not counted in ``wall_time_s``).
 
     Returns
     -------
@@ -162,6 +172,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                           hint="a fraction of the sheet's own weight")
     if not isinstance(symmetric, (bool, np.bool_)):
         raise ParameterError(f"symmetric must be True or False, got {symmetric!r}")
+    sensitivities = check_parameters(sensitivities, sheet)
     if series is not None and not callable(getattr(series, "on_step", None)):
         raise ParameterError(f"series must be a skfem_sheet.io.Series, got {series!r}")
     ndofs = estimate_dofs(sheet, hmax, layers, half=symmetric, refine=refine)
@@ -250,4 +261,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         target_gravity=gravity, start_record=out.record)
     if not out.converged and on_failure == "raise":
         raise SolveError(f"solve did not reach full load: {out.reason}", result)
+    if sensitivities and out.converged:
+        result = replace(result, sensitivities=state_sensitivities(
+            problem, w, out.g, sensitivities, linear=linear))
     return result

@@ -198,8 +198,16 @@ class CoarseStart:
         if getattr(clinear, "needs_layout", False):
             clinear.attach(cproblem.saddle_point_layout())
         cstats = Stats()
+        # the coarse folds start the fine location: located to a hundredth of
+        # the fold tolerance, their states lie a tenth as far along the null
+        # vector from the fold as the fine tolerance allows (the offset goes
+        # like the square root of the load's), so one section solve from the
+        # carried state locates the fine fold (coarse factorisations cost
+        # about 1/50 of fine ones at hmax 0.1 against 0.03)
+        coarse_steps = replace(job.step_options,
+                               fold_tolerance=job.step_options.fold_tolerance / 100)
         coarse = follow_path(cproblem, job.path, job.kappa, clinear,
-                             newton_options=job.newton_options, step_options=job.step_options,
+                             newton_options=job.newton_options, step_options=coarse_steps,
                              stats=cstats, progress=lambda f: job.report(0.9 * f),
                              gravity=job.gravity)
 
@@ -223,7 +231,8 @@ class CoarseStart:
             iphase = names.index(name)
             phase = LoadPhase(sheet, *phases[iphase][1:])
             f0 = job.stats.factorizations
-            located = _fold_on_fine(cproblem, fold, sheet, phase, tight)
+            located = _fold_on_fine(cproblem, fold, sheet, phase, tight,
+                                    job.step_options.fold_tolerance)
             log.debug("coarse fold at %.6g located on the fine mesh at %s with %d factorisations",
                       fold.snap.load, None if located is None else located.value,
                       job.stats.factorizations - f0)
@@ -326,8 +335,9 @@ def _carried(cproblem, fold, fine):
     return w, v
 
 
-def _fold_on_fine(cproblem, fold, sheet, phase, tol):
-    """The coarse ``fold`` located on the fine mesh of ``sheet`` (FoldPoint or None)."""
+def _fold_on_fine(cproblem, fold, sheet, phase, tol, ptol):
+    """The coarse ``fold`` located on the fine mesh of ``sheet``, its load to
+    ``ptol`` (FoldPoint or None)."""
     fine = sheet.problem
     w, v = _carried(cproblem, fold, fine)
     u = w[fine.free]
@@ -337,7 +347,7 @@ def _fold_on_fine(cproblem, fold, sheet, phase, tol):
         # on the branch (measured: Newton on the fold system from the carried
         # state first cost 3-8 factorisations more on the sample's snapping
         # sheets at hmax 0.03, failing from most of them)
-        located, _ = fold_on_branch(counter, u, p, 0, v, tol=tol)
+        located, _ = fold_on_branch(counter, u, p, 0, v, tol=tol, ptol=ptol)
         if located is None:
             located, _ = locate_fold(counter, u, p, 0, v0=v, tol=tol, approach=8)
     except EngineFailure:
@@ -353,7 +363,15 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
     kappa, g = phase.loads(located.p)
     w = transfer(cproblem, fold.landing, fine)
     w[fine.clamp_dofs] = fine.clamp_values(kappa)
-    res = newton(fine, w, g, job.linear, job.newton_options, job.stats)
+    # a point on the way, solved like every point of the load path (to a
+    # tenth of the nominal corrector distance, StepOptions.intermediate_utol)
+    scale = max(1.0, fine.sheet.length)
+    # by exact Newton: from a carried state one step or two, the last
+    # factorisation the Hessian, whose inertia verifies the landing (MIP
+    # Newton would factorise the Hessian once more for it)
+    loose = replace(job.newton_options, rtol=1.0, linearization="exact",
+                    utol=job.step_options.intermediate_utol(scale))
+    res = newton(fine, w, g, job.linear, loose, job.stats)
     landing = None
     if res.converged:
         stable, _ = end_state_verdict(fine, job.linear, res.w, job.stats)

@@ -31,17 +31,19 @@ LAYERS = {
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
     "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
-    "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface
+    "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface,
+                              # sensitivities of a solved state and of a fold
     "reduced/": 9,            # reduced-order models
     "sheet_engine.py": 9,     # the sheet as an engine problem in its loads (SheetLoadProblem)
     "continuation.py": 10,    # load paths (follow_path): continuation in the loads, snaps
     "result.py": 11,          # Result, Result.to_record, StartRecord, SolveError
     "starts.py": 11,          # the start strategies (PathStart, CoarseStart)
     "solve.py": 11,           # solve: the facade
-    "__init__.py": 11,        # the package's facade (Sheet, solve, Result, ...)
     "bistability.py": 12,     # follow_length, fold_lengths, s_curve
     "foldcurve.py": 12,       # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
+    "__init__.py": 12,        # the package's facade (Sheet, solve, Result, calibrate, ...)
+    "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections
     "states.py": 12,          # solve_both: both load paths, whether their states differ
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
@@ -290,6 +292,21 @@ def _documented_layers():
 
 def test_the_documented_table_is_this_one():
     assert _documented_layers() == LAYERS
+
+
+def test_the_package_names_come_from_its_layer_or_below():
+    """``skfem_sheet.X`` is imported on first use from the module named in
+    ``__init__._LAZY`` (a dict of strings, which the import reader does not
+    see): none of them may sit above the facade's own layer."""
+    tree = ast.parse((PACKAGE / "__init__.py").read_text())
+    lazy = next(node.value for node in ast.walk(tree) if isinstance(node, ast.Assign)
+                and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets))
+    targets = [v.value for v in lazy.values]
+    assert targets and all(t.startswith("skfem_sheet.") for t in targets)
+    own = layer_of("__init__.py")
+    above = {t: layer_of(_module_file(t)) for t in targets
+             if layer_of(_module_file(t)) > own}
+    assert not above, above
 
 
 # -- the checker itself -------------------------------------------------------------------

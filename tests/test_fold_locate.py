@@ -165,3 +165,43 @@ def test_sheet_popup_fold_agrees_with_pseudo_arclength(sheet_popup):
     assert t_p[0] < 0 < t_p[-1] and np.sum(np.diff(np.sign(t_p)) != 0) == 1
     assert np.all(a.values >= b.fold.value - 1e-9)
     assert abs(a.folds[0].value - b.fold.value) < 1e-7
+
+
+# -- fold_on_branch: Newton on dp/dc along the branch ----------------------------------------
+def test_toy_fold_on_branch_converges_quadratically_on_the_stiff_curved_branch():
+    """From an equilibrium of the toy's stiff, curved branch (where the fold
+    system diverges), Newton on ``g = dp/dc`` with the branch's curvature from
+    residual differences: each section lands on the branch, and the load's
+    distance to the fold falls quadratically (a secant's order would be 1.6)."""
+    P = _toy()
+    u, p = _on_branch(0.01)
+    fold, res = engine.fold.fold_on_branch(Counting(P), u, p, "lam", np.array([1.0, 0.0]),
+                                           ptol=1e-14)
+    assert fold is not None and res.converged
+    _check_toy_fold(P, fold)
+    # lam = c x^2 on sections x = const: dp/dc = 2 c x, exactly linear, so one
+    # Newton step lands on the fold; with the first section that is two
+    # section solves and a couple of Newton iterations each
+    assert res.stats.newton_iterations <= 8
+
+
+def test_fold_on_branch_stops_at_the_stated_load_tolerance():
+    """The iteration stops when the load would move less than ``ptol`` on the
+    way to the fold, and then reports the fold the last step predicts: on the
+    softening spring ``u - u^3/3 = lam`` (fold at lam = 2/3, u = 1) the loose
+    tolerance takes fewer sections and the fold is still within ``ptol``."""
+    P = FunctionProblem(lambda u, p: u - u**3 / 3 - p[0],
+                        lambda u, p: np.diag(1 - u**2), ("lam",))
+    counts = {}
+    for ptol in (1e-3, 1e-12):
+        c = Counting(P)
+        f, res = engine.fold.fold_on_branch(c, np.array([0.9]), np.array([0.64]), "lam",
+                                            np.ones(1), ptol=ptol)
+        assert f is not None
+        assert abs(f.value - 2.0 / 3.0) <= ptol
+        assert abs(float(f.u[0]) - 1.0) <= 10 * np.sqrt(ptol)
+        # v . D^2 R [v, v] = -2 u: -2 at the fold, read at the last section
+        # (within 10 sqrt(ptol) of u = 1, like the state)
+        assert f.side == -1 and abs(f.a - (-2.0)) <= 20 * np.sqrt(ptol) + 1e-6
+        counts[ptol] = c.stats().factorizations
+    assert counts[1e-3] < counts[1e-12]

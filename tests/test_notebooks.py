@@ -39,7 +39,7 @@ def _has_assert(nb):
 
 
 def test_notebooks_present():
-    assert ({"quickstart.ipynb", "reduced_models.ipynb", "bistability.ipynb"}
+    assert ({"quickstart.ipynb", "reduced_models.ipynb", "bistability.ipynb", "calibration.ipynb"}
             <= {p.name for p in NOTEBOOKS.iterdir()})
 
 
@@ -57,3 +57,9 @@ def test_reduced_models(tmp_path):
 def test_bistability(tmp_path):
     out = _outputs(_run("bistability.ipynb", tmp_path))
     assert "pop-up length   L0*/a = " in out and "folds at L/a = " in out
+
+
+def test_calibration(tmp_path):
+    out = _outputs(_run("calibration.ipynb", tmp_path))
+    assert "E/(rho g a) = " in out and "refused: J^T J is singular" in out
+    assert "window" in out

@@ -160,6 +160,8 @@ def test_solve_si_echoes_every_quantity_and_the_deflection_in_mm(capsys):
     (["solve", "--length", "1", "--folds"], "--folds is for --path both"),
     (["solve", "--length", "1", "--path", "both", "--series", "x"], "--series is for one"),
     (["solve", "--length", "1", "--path", "both", "--folds", "2:1x"], "--folds must be"),
+    (["solve", "--length", "1", "--path", "both", "--sensitivities", "length"],
+     "--sensitivities is for one"),
     (["bistability", "--si", SI, "--curvature", "2"], "--si cannot be combined with "
                                                       "--curvature"),
     (["bistability", "--length", "1.3", "--at-length", "1.3"], "--length cannot be combined"),

@@ -12,6 +12,7 @@ Commands:
 - ``fold-curve``: the fold curve in (L, b/a) at one a/R, through its cusp
 - ``fold-map``: pop-up and standout lengths over a grid of (b/a, a/R)
 - ``figure``: one of the paper's figures
+- ``calibrate``: fit the modulus (or other parameters) to measured tip deflections
 
 All argument parsing of the package lives here, one module per command; each
 exposes ``register(subparsers)``, which adds the command's parser and sets
@@ -37,14 +38,14 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 #: The command modules, in the order of ``--help``.  They are imported when the
 #: parser is built (``cli.COMMANDS`` too), so that ``--version`` needs no numerics.
 COMMAND_NAMES = ("solve", "demo", "rom", "sweep", "bistability", "fold_curve", "fold_map",
-                 "figure")
+                 "figure", "calibrate")
 
 
 def _commands():
-    from . import bistability, demo, figure, fold_curve, fold_map, rom, solve, sweep
+    from . import bistability, calibrate, demo, figure, fold_curve, fold_map, rom, solve, sweep
 
     modules = dict(solve=solve, demo=demo, rom=rom, sweep=sweep, bistability=bistability,
-                   fold_curve=fold_curve, fold_map=fold_map, figure=figure)
+                   fold_curve=fold_curve, fold_map=fold_map, figure=figure, calibrate=calibrate)
     return tuple(modules[name] for name in COMMAND_NAMES)
 
 

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import inspect
 import math
+from dataclasses import replace
 
+from ..analyses.sensitivity import SI_UNITS
 from ..continuation import PATHS
 from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
@@ -113,6 +115,10 @@ def add_solve_args(p, hmax=0.03) -> None:
                    help="write every load step as a ParaView time series: DIR/<path>.pvd "
                         "and DIR/<path>/<path>_NNNN.vtu (time: the load parameter)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--sensitivities", default=None, metavar="NAME,...",
+                   help="derivatives of d (and of the energy and the tip angle) by these "
+                        "parameters: modulus, thickness, curvature, gravity, length, tip_width "
+                        "(in --json under 'sensitivities'; with --si also in SI units)")
 
 
 def register(subparsers) -> None:
@@ -228,7 +234,12 @@ def run(args) -> int:
     result = solve(sheet, path=args.path, hmax=args.hmax, layers=args.layers,
                    refine=args.refine, solver=args.solver, symmetric=not args.full_sheet,
                    on_failure="return", progress=not args.quiet, series=series,
-                   start=_start(args), coarse_hmax=args.coarse_hmax, gravity=args.gravity)
+                   start=_start(args), coarse_hmax=args.coarse_hmax, gravity=args.gravity,
+                   sensitivities=getattr(args, "sensitivities", None) or ())
+    if result.sensitivities is not None and getattr(args, "si", None) is not None:
+        si = parse_si(args.si)   # the SI values of d's sensitivities too
+        result = replace(result, sensitivities=result.sensitivities.with_si(
+            si["base_width"], si["density"], si.get("gravity", 9.81)))
     if args.json:
         result.write(args.json)
     if args.vtu:
@@ -263,15 +274,18 @@ def run(args) -> int:
                  if result.coarse_fallback else ""))
     if pvd:
         print(f"  wrote {pvd} ({len(series)} steps)")
+    if result.sensitivities is not None:
+        _print_sensitivities(result.sensitivities)
     return 0 if result.converged else 1
 
 
 def run_both(args, sheet) -> int:
     """``--path both``: both load paths, whether their end states differ, the fold
     lengths with ``--folds``; 0 if both converged, else 1."""
-    if args.series:
-        raise ParameterError("--series is for one load path: run --path curvature-first and "
-                             "--path gravity-first, each with its own --series")
+    for flag in ("series", "sensitivities"):
+        if getattr(args, flag, None):
+            raise ParameterError(f"--{flag} is for one load path: run --path curvature-first "
+                                 f"and --path gravity-first, each with its own --{flag}")
     lengths = None
     if args.folds not in (None, "auto"):
         lengths = parse_range(args.folds, "--folds", pair="short:long", example="0.6:2.4")
@@ -294,6 +308,19 @@ def run_both(args, sheet) -> int:
     for f in written:
         print(f"  wrote {f}")
     return 0 if states.converged else 1
+
+
+def _print_sensitivities(sens) -> None:
+    print(f"  sensitivities of d/a ({sens.back_substitutions} back-substitutions, "
+          f"{sens.factorizations} factorisations, {sens.time_s:.2f} s):")
+    si = sens.in_si() if sens.si is not None else None
+    for name, v in sens.of("deflection").items():
+        line = f"    d(d/a)/d({name}) = {v:+.6g}"
+        if si is not None:
+            si_name = SI_UNITS[name][0]
+            line += (f"   (SI: dd/d{si_name} = {si['values']['deflection'][si_name]:+.6g} "
+                     f"{si['units']['deflection'][si_name]})")
+        print(line)
 
 
 def _start(args) -> str:

@@ -29,13 +29,23 @@ branch curves strongly in a stiff direction of the state.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..params import ParameterError, check_range
-from .corrector import DEFAULT_TOLERANCES, Bordered, NewtonResult, Tolerances, correct
+from .corrector import (
+    DEFAULT_TOLERANCES,
+    Bordered,
+    ChordTest,
+    NewtonResult,
+    Tolerances,
+    correct,
+)
 from .protocol import Counting, EngineFailure, Stats, parameter_index
+
+log = logging.getLogger(__name__)
 
 __all__ = ["FoldPoint", "equilibrium_on_section", "fold_on_branch", "fold_on_section", "fold_test",
            "locate_fold"]
@@ -616,7 +626,7 @@ def fold_on_section(problem, u, p, params, section, *, v0, tol: Tolerances = DEF
 
 
 def equilibrium_on_section(problem, u, p, param, section, *,
-                           tol: Tolerances = DEFAULT_TOLERANCES):
+                           tol: Tolerances = DEFAULT_TOLERANCES, chord: bool = False):
     """An equilibrium on a hyperplane, one parameter free.
 
     Newton's method on ``R(u, p) = 0, <t_u, u> + t_p . p = c`` in
@@ -634,6 +644,10 @@ def equilibrium_on_section(problem, u, p, param, section, *,
     section : (ndarray, ndarray, float)
         ``(t_u, t_p, c)``, ``t_p`` over all parameters.
     tol : Tolerances
+    chord : bool
+        Confirm convergence by the simplified (chord) correction with the
+        last factorisation (:class:`~skfem_sheet.engine.corrector.ChordTest`,
+        from the second linearisation on) instead of a further factorisation.
 
     Returns
     -------
@@ -657,10 +671,13 @@ def equilibrium_on_section(problem, u, p, param, section, *,
     t_u, t_p, c = section
     t_u = np.asarray(t_u, dtype=float)
     t_p = np.asarray(t_p, dtype=float)
-    linearize = section_linearization(
-        counter, i, t_u, t_p[i],
-        lambda uu, pp: counter.inner(t_u, uu) + float(t_p @ pp) - float(c))
-    return correct(counter, np.array(u, dtype=float), p, linearize, tol)
+    def distance(uu, pp):
+        return counter.inner(t_u, uu) + float(t_p @ pp) - float(c)
+
+    linearize = section_linearization(counter, i, t_u, t_p[i], distance)
+    u = np.array(u, dtype=float)
+    test = ChordTest(counter, tol, distance, start=u) if chord else None
+    return correct(counter, u, p, linearize, tol, converged=test)
 
 
 def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERANCES,
@@ -671,19 +688,32 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     ``c = <v, u>`` along the approximate null vector ``v`` (the equilibrium
     on each section ``<v, u> = c`` with ``p_param`` free is regular at the
     fold, :func:`equilibrium_on_section`).  The fold is where the branch
-    turns in the parameter, ``dp/dc = 0``, i.e. where the test function
-    ``sigma`` of the minimally augmented system vanishes on the branch;
-    ``dp/dc`` is read off the bordered matrix of each section solve (two
-    back-substitutions), and ``c`` is found by the secant method on it.  Each
-    iteration is a section solve from the last point (a few factorisations),
-    every iterate an equilibrium: unlike Newton on the whole fold system,
-    whose first step goes straight off a strongly curved branch (a thin
-    sheet: a step of 0.005 a leaves a residual of the order of the weight),
-    the iteration never leaves the branch.  It stops when the parameter moves
-    by at most ``ptol`` (relative to ``max(1, |p|)``); near the fold the
-    parameter is quadratic in ``c``, so it is then known to about ``ptol``
-    squared over the secant's step.  The null vector, ``sigma`` and the fold
-    coefficient ``a`` come from the fold system's linearisation there.
+    turns in the parameter, ``g = dp/dc = 0``, i.e. where the test function
+    ``sigma`` of the minimally augmented system vanishes on the branch.  At
+    each section's equilibrium the bordered matrix ``M = [[K, R_p], [v^T,
+    0]]`` of its last Newton step gives the branch's derivatives by
+    back-substitutions, no further factorisation:
+
+        M (u', g) = (0, 1),    M (u'', g') = (-D^2 R[t, t], 0),  t = (u', g),
+
+    the second from differentiating ``R(u(c), p(c)) = 0`` twice, with
+    ``D^2 R[t, t]`` a central second difference of three residuals.  Newton's
+    method on ``g(c) = 0`` then steps ``dc = -g / g'`` to the next section
+    (predicted along the branch to second order); it stops when the load
+    would move by at most ``ptol`` (relative to ``max(1, |p|)``) on the way
+    to the fold, ``|g^2 / (2 g')| <= ptol``, and the fold is the point that
+    step predicts (``u + dc u' + dc^2 u''/2``, ``p + dc g + dc^2 g'/2``: its
+    residual and the error of its load are of third order in ``dc``, its
+    load within ``ptol`` of the last equilibrium's).  Every iterate is an equilibrium: unlike Newton on the whole fold
+    system, whose first step goes straight off a strongly curved branch (a
+    thin sheet: a step of 0.005 a leaves a residual of the order of the
+    weight), the iteration never leaves the branch.  From a state carried over
+    from a coarser mesh near its fold, the first section is within a few
+    ``1e-6`` of the fold load: one section solve (three factorisations, the
+    last Newton step's convergence confirmed by a back-substitution,
+    :class:`~skfem_sheet.engine.corrector.ChordTest`) locates it.  The null
+    vector, ``sigma`` and the fold coefficient ``a`` come from that last
+    factorisation and the same residual differences.
 
     Parameters
     ----------
@@ -696,6 +726,7 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     tol : Tolerances
         Of the section solves.
     ptol : float
+        The fold load's tolerance (relative to ``max(1, |p|)``).
     max_iterations : int
     check_inertia : bool
         As in :func:`locate_fold`.
@@ -719,83 +750,102 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     start = counter.stats()
     p = np.array(p, dtype=float)
     i = parameter_index(counter, param, len(p))
+    ptol = check_range("ptol", ptol, 0, None, lo_open=True)
     v = np.asarray(v, dtype=float)
     n = np.sqrt(counter.inner(v, v))
     if not (n > 0 and np.isfinite(n)):
         raise ParameterError("v must be a non-zero vector")
     v = v / n
     zero = np.zeros_like(p)
+    e_p = np.zeros_like(p)
+    e_p[i] = 1.0
 
     def on_section(uu, pp, c):
-        """The equilibrium on the section ``<v, u> = c`` from ``(uu, pp)``, and
-        the branch's tangent there with ``<v, t_u> = 1``: ``(result, t_u, dp/dc)``."""
-        res = equilibrium_on_section(counter, uu, pp, i, (v, zero, c), tol=tol)
+        """The equilibrium on the section ``<v, u> = c`` from ``(uu, pp)`` and
+        the branch's derivatives there (``<v, u'> = 1``): ``(result, u', g,
+        u'', g')`` or None."""
+        res = equilibrium_on_section(counter, uu, pp, i, (v, zero, c), tol=tol, chord=True)
         if not res.converged:
             return None
-        try:  # [[K, R_p], [v^T, 0]] t = [0; 1]
-            tu, tq = res.extra.solve(np.zeros(len(res.u)), [1.0])
+        M = res.extra
+        try:
+            tu, tq = M.solve(np.zeros(len(res.u)), [1.0])
+            g = float(tq[0])
+            # D^2 R[t, t] along t = (u', g): central second difference
+            e = counter.fd_state_step ** 0.5 * max(1.0, counter.correction_norm(res.u)) \
+                / max(counter.correction_norm(tu), 1e-300)
+            r0 = counter.residual(res.u, res.p)
+            rp = counter.residual(res.u + e * tu, res.p + e * g * e_p)
+            rm = counter.residual(res.u - e * tu, res.p - e * g * e_p)
+            q = (rp - 2.0 * r0 + rm) / e**2
+            if not np.all(np.isfinite(q)):
+                return None
+            uu2, gq = M.solve(-q, [0.0])
         except EngineFailure:
             return None
-        return res, tu, float(tq[0])
+        return res, tu, g, uu2, float(gq[0]), q
 
     def failed(reason, last=None):
         stats = counter.stats() - start
         return None, NewtonResult(u if last is None else last.u, p if last is None else last.p,
                                   False, stats.newton_iterations, reason, (), None, stats)
 
-    def along(pt, c):
-        """From the point ``pt`` to the section ``c``, predicted along the
-        branch's tangent there, halved (three times at most) where the section
-        solve fails: ``(point, c reached)`` or None."""
-        res, tu, g = pt
+    def along(pt, dc):
+        """From the point ``pt`` to the section ``dc`` further, predicted
+        along the branch to second order, halved (three times at most) where
+        the section solve fails: the next point or None."""
+        res, tu, g, uu2, g2 = pt[:5]
         c0 = counter.inner(v, res.u)
         for _ in range(4):
             pp = res.p.copy()
-            pp[i] += (c - c0) * g
-            nxt = on_section(res.u + (c - c0) * tu, pp, c)
+            pp[i] += dc * g + 0.5 * dc**2 * g2
+            nxt = on_section(res.u + dc * tu + 0.5 * dc**2 * uu2, pp, c0 + dc)
             if nxt is not None:
-                return nxt, c
-            c = 0.5 * (c + c0)
+                return nxt
+            dc *= 0.5
         return None
 
-    c0 = counter.inner(v, u)
-    a_pt = on_section(np.array(u, dtype=float), p, c0)
-    if a_pt is None:
+    pt = on_section(np.array(u, dtype=float), p, counter.inner(v, u))
+    if pt is None:
         return failed("the equilibrium on the first section did not converge")
-    # the second section: a small move along the branch, for the first secant
-    h = 1e-3 * max(1.0, counter.correction_norm(a_pt[0].u))
-    step = along(a_pt, c0 + h)
-    if step is None:
-        return failed("the equilibrium on the second section did not converge", a_pt[0])
-    b_pt, cb = step
-    ca = c0
+    scale = max(1.0, abs(float(p[i])))
     for _ in range(max_iterations):
-        ga, gb = a_pt[2], b_pt[2]
-        if gb == ga:
+        g, g2 = pt[2], pt[4]
+        if not (g2 != 0 and np.isfinite(g2)):
+            return failed("the branch has no curvature in the parameter here (g' = 0)", pt[0])
+        dc = -g / g2
+        log.debug("fold_on_branch: p %.10g, dp/dc %.3g, d2p/dc2 %.3g: the fold %.3g further "
+                  "in p (%d factorisations so far)", pt[0].p[i], g, g2, -0.5 * g * dc,
+                  (counter.stats() - start).factorizations)
+        if 0.5 * abs(g * dc) <= ptol * scale:
             break
-        c_new = cb - gb * (cb - ca) / (gb - ga)
-        # no extrapolation beyond twice the last secant step (the secant of a
-        # curved dp/dc far from the fold can overshoot)
-        c_new = cb + float(np.clip(c_new - cb, -2 * abs(cb - ca), 2 * abs(cb - ca)))
-        nearer = b_pt if abs(c_new - cb) <= abs(c_new - ca) else a_pt
-        step = along(nearer, c_new)
-        if step is None:
-            return failed("a section solve of the secant did not converge", b_pt[0])
-        n_pt, c_new = step
-        moved = abs(float(n_pt[0].p[i] - b_pt[0].p[i]))
-        a_pt, ca, b_pt, cb = b_pt, cb, n_pt, c_new
-        if moved <= ptol * max(1.0, abs(float(b_pt[0].p[i]))):
-            break
+        nxt = along(pt, dc)
+        if nxt is None:
+            return failed("a section solve on the way to the fold did not converge", pt[0])
+        pt = nxt
     else:
-        return failed(f"no convergence of the secant in {max_iterations} iterations", b_pt[0])
-    rb = b_pt[0]
-    system = FoldSystem(counter, v, [i])
+        return failed(f"no convergence to the fold in {max_iterations} iterations", pt[0])
+    res, tu, g, uu2, g2, q = pt
+    # the fold itself, predicted from the last section's equilibrium along the
+    # branch to second order (its residual is of third order in dc)
+    u_fold = res.u + dc * tu + 0.5 * dc**2 * uu2
+    p_fold = res.p.copy()
+    p_fold[i] += dc * g + 0.5 * dc**2 * g2
+    # the fold's null vector, sigma and coefficient a from the last
+    # factorisation (back-substitutions) and the residual differences: at the
+    # fold the branch's direction u' is the null vector and D^2 R[v, v] is q
+    M = res.extra
     try:
-        system(rb.u, rb.p)
+        sigma, _ = fold_test(M.fact, M.matvec, tu)
     except EngineFailure as err:
-        return failed(f"the fold system at the located point: {err}", rb)
+        return failed(f"the fold test at the located point: {err}", res)
+    scale_v = float(np.abs(tu).max())
+    vn = tu / scale_v
+    a = float(tu @ q) / scale_v**3
+    r_p = counter.dresidual(res.u, res.p, i)
     stats = counter.stats() - start
-    out = NewtonResult(rb.u, rb.p, True, stats.newton_iterations, "", (), None, stats,
-                       system.last)
+    out = NewtonResult(u_fold, p_fold, True, stats.newton_iterations, "", (), None, stats,
+                       {"v": vn, "sigma": sigma, "a": a, "R_p": r_p[:, None],
+                        "inertia": res.factorization.inertia()})
     fold = fold_point(counter, out, i, check_inertia, 1e-4, stats)
     return fold, out

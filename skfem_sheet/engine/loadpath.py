@@ -172,7 +172,7 @@ def _turn_estimate(counter, i, nodes):
     return u, p, du
 
 
-def _locate(counter, i, p_ref, nodes, tol, check_inertia):
+def _locate(counter, i, p_ref, nodes, tol, check_inertia, ptol):
     """The fold where the parameter turns among ``nodes`` (see
     :func:`_turn_estimate`): on the branch from the interpolated turning
     point, along the branch's direction there (the approximate null vector;
@@ -184,7 +184,8 @@ def _locate(counter, i, p_ref, nodes, tol, check_inertia):
     p = p_ref.copy()
     p[i] = p_star
     if counter.inner(du, du) > 0:
-        fold, _ = fold_on_branch(counter, u_star, p, i, du, tol=tol, check_inertia=check_inertia)
+        fold, _ = fold_on_branch(counter, u_star, p, i, du, tol=tol, ptol=ptol,
+                                 check_inertia=check_inertia)
         if fold is not None:
             return fold
     s0, u0, q0 = nodes[-2]
@@ -201,7 +202,7 @@ def _locate(counter, i, p_ref, nodes, tol, check_inertia):
 def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
          tol: Tolerances = DEFAULT_TOLERANCES, end_tol: Tolerances | None = None,
          start=None, on_step=None, progress=None, max_points: int = 1000,
-         check_inertia: bool = False) -> Branch:
+         check_inertia: bool = False, fold_tol: float = 1e-9) -> Branch:
     """Follow the branch through ``(u0, p0)`` until ``p[param]`` reaches
     ``stop`` or the parameter turns (a fold, located).
 
@@ -231,6 +232,9 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
     check_inertia : bool
         Also count the negative eigenvalues on both sides of a located fold
         (two factorisations; :attr:`FoldPoint.crossing`).
+    fold_tol : float
+        The located fold's tolerance in the parameter (relative to ``max(1,
+        |p|)``; ``ptol`` of :func:`~skfem_sheet.engine.fold.fold_on_branch`).
 
     Returns
     -------
@@ -317,7 +321,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             nodes = [(pt.s, pt.u, float(pt.p[i])) for pt in points[-2:]]
             nodes.append((points[-1].s + chord, res.u, float(res.p[i])))
             f0 = counter.stats().factorizations
-            fold = _locate(counter, i, p, nodes, end_tol, check_inertia)
+            fold = _locate(counter, i, p, nodes, end_tol, check_inertia, fold_tol)
             log.debug("fold located with %d factorisations: %s",
                       counter.stats().factorizations - f0, None if fold is None else fold.value)
             if fold is not None and fold.crossing is None:
