@@ -291,12 +291,19 @@ def test_planform_csv_of_a_trapezoid_gives_the_trapezoid(tmp_path, capsys):
     assert "width" in capsys.readouterr().err
 
 
-def test_solve_start_coarse_reports_the_coarse_work_separately(tmp_path):
-    out = tmp_path / "c.json"
+@pytest.fixture(scope="module")
+def coarse_cli(tmp_path_factory):
+    """One CLI solve with the default start (coarse, --coarse-hmax 0.12 for hmax 0.05),
+    shared by the two tests below: ``(process, its JSON)``."""
+    out = tmp_path_factory.mktemp("coarse") / "c.json"
     p = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.05",
-            "--start", "coarse", "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
+            "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
     assert p.returncode == 0, p.stderr
-    data = json.loads(out.read_text())
+    return p, json.loads(out.read_text())
+
+
+def test_solve_start_coarse_reports_the_coarse_work_separately(coarse_cli):
+    _, data = coarse_cli
     assert data["start"] == "coarse" and data["coarse_hmax"] == 0.12
     assert data["start_record"]["fallback"] == "" and data["coarse_factorizations"] > 0
     assert 0 < data["factorizations"] <= 6 and data["back_substitutions"] > 0
@@ -306,17 +313,13 @@ def test_solve_start_coarse_reports_the_coarse_work_separately(tmp_path):
     assert bad.returncode != 0 and "start" in bad.stderr
 
 
-def test_solve_starts_coarse_by_default_and_path_with_a_series(tmp_path):
+def test_solve_starts_coarse_by_default_and_path_with_a_series(tmp_path, coarse_cli):
     p = argparse.ArgumentParser()
     add_solve_args(p)
     assert _start(p.parse_args([])) == "coarse"
     assert _start(p.parse_args(["--series", str(tmp_path)])) == "path"
     assert _start(p.parse_args(["--series", str(tmp_path), "--start", "coarse"])) == "coarse"
     assert _start(p.parse_args(["--start", "path"])) == "path"
-    out = tmp_path / "d.json"
-    r = run("solve", "--length", "0.8", "--curvature", "2.0", "--hmax", "0.05",
-            "--coarse-hmax", "0.12", "--json", str(out), "--quiet")
-    assert r.returncode == 0, r.stderr
-    data = json.loads(out.read_text())
+    r, data = coarse_cli          # run without --start
     assert data["start"] == "coarse" and data["coarse_factorizations"] > 0
     assert "on the coarse mesh" in r.stdout

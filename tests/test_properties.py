@@ -15,6 +15,7 @@ own are kept out of the strategies and pinned by strict ``xfail`` tests below.
 
 Budget: about 2,400 generated inputs in the default suite, well under a minute.
 """
+import importlib
 import math
 import sys
 
@@ -336,26 +337,27 @@ def test_reduced_models_on_valid_sheets_pass_their_checks(name, sheet):
 # -- the command line ----------------------------------------------------------------------
 @pytest.fixture
 def no_heavy_work(monkeypatch):
-    monkeypatch.setattr(sys.modules["skfem_sheet.solve"], "build_problem", _reached)
-    monkeypatch.setattr(sys.modules["skfem_sheet.bistability"], "SheetShapeProblem", _reached)
-    monkeypatch.setattr(sys.modules["skfem_sheet.studies.sweep"], "execute", _reached)
-    monkeypatch.setattr(sys.modules["skfem_sheet.reduced.elastica"], "solve_bvp", _reached)
-    monkeypatch.setattr(sys.modules["skfem_sheet.reduced.ribbon"], "ribbon", _reached)
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.solve"), "build_problem", _reached)
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.bistability"), "SheetShapeProblem",
+                        _reached)
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.studies.sweep"), "execute", _reached)
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.reduced.elastica"), "solve_bvp", _reached)
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.reduced.ribbon"), "ribbon", _reached)
 
 
 texts = st.one_of(st.sampled_from(["1", "0.5", "1.3", "2.5", "0", "-0", "-1", "nan", "inf",
                                    "-inf", "1e308", "1e999", "abc", "", " ", "0.03", "735",
-                                   "1:2", "0.6:2.4", "1,2", "0.5:1:0.25", "3", "a:b"]),
+                                   "1:2", "0.6:2.4", "1,2", "0.5:1:0.25", "3", "a:b", "both"]),
                   st.floats(allow_nan=True).map(repr), st.text(max_size=5))
 OPTIONS = {
     "solve": ["--length", "--tip-width", "--curvature", "--thickness", "--modulus", "--hmax",
-              "--layers", "--refine", "--path", "--solver", "--si", "--series"],
+              "--layers", "--refine", "--path", "--solver", "--si", "--series", "--folds"],
     "rom elastica": ["--length", "--tip-width", "--thickness", "--modulus"],
     "rom persistence": ["--length", "--tip-width", "--curvature", "--thickness", "--modulus"],
     "rom cantilever": ["--length", "--tip-width", "--curvature", "--thickness", "--modulus"],
     "rom ribbon": ["--lengths", "--tip-width", "--curvature", "--direction", "--elements"],
     "bistability": ["--tip-width", "--curvature", "--lengths", "--hmax", "--step", "--tol",
-                    "--at-length", "--curvatures", "--solver"],
+                    "--at-length", "--curvatures", "--solver", "--length", "--si"],
     "sweep": ["--lengths", "--tip-widths", "--curvatures", "--hmax", "--refine", "--workers",
               "--paths", "--symmetric", "--solver"],
 }

@@ -47,11 +47,19 @@ def test_python_block_runs_as_written(code, tmp_path):
     p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                        text=True, timeout=600)
     assert p.returncode == 0, p.stderr
-    if "up.write" in code:       # the two-branch example: two branches, both stable
-        assert "curvature-dominated True gravity-dominated True" in p.stdout
-        up, down = (float(x) for x in re.findall(r"d/a = ([-\d.]+)", p.stdout))
+    if "up.write" in code:       # the two-state example: two distinct states, both stable
+        assert "this sheet is bistable" in p.stdout
+        assert "curvature-dominated, stable" in p.stdout and "gravity-dominated, stable" in p.stdout
+        up, down = (float(x) for x in re.findall(r"aloft d/a = ([-\d.]+), drooped d/a = "
+                                                 r"([-\d.]+)", p.stdout)[0])
         assert abs(up) < 0.1 and down > 0.5
         assert (tmp_path / "up.vtu").stat().st_size > 0
+        # the README's text block is what print(both) printed, timings aside
+        shown = next(c for lang, c in BLOCKS if lang == "text").splitlines()
+        printed = p.stdout.splitlines()
+        assert printed[0] == shown[0] and printed[3] == shown[3]
+        for a, b in zip(printed[1:3], shown[1:3]):
+            assert a.split("(")[0] == b.split("(")[0], (a, b)
 
 
 def test_command_lines_run_as_written(tmp_path):
@@ -62,7 +70,8 @@ def test_command_lines_run_as_written(tmp_path):
         p = subprocess.run([sys.executable, *args[1:], "--quiet"], cwd=tmp_path,
                            capture_output=True, text=True, timeout=600)
         assert p.returncode == 0, (line, p.stderr)
-    up = json.loads((tmp_path / "up.json").read_text())
-    down = json.loads((tmp_path / "down.json").read_text())
+    both = json.loads((tmp_path / "both.json").read_text())
+    assert both["distinct"] is True and both["bistable"] is True
+    up, down = both["curvature_first"], both["gravity_first"]
     assert up["branch"] == "curvature-dominated" and down["branch"] == "gravity-dominated"
     assert abs(up["deflection"]) < 0.1 and down["deflection"] > 0.5

@@ -251,13 +251,38 @@ def test_ctrl_c_stops_cleanly_and_keeps_finished_points(monkeypatch, tmp_path):
     table = tmp_path / "t.csv"
     monkeypatch.setattr(sw, "solve", FakeSolve(interrupt_at=3))
     pts = grid(length=[0.3, 0.4, 0.5, 0.6])
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt) as info:
         run_sweep(pts, table=table, workers=1, progress=False)
+    err = info.value
+    assert isinstance(err, runner.StudyInterrupted)
+    assert (err.finished, err.points, err.new, err.table) == (2, 4, 2, str(table))
+    assert f"2 of 4 points are finished (2 in this run) and kept in {table}" in str(err)
     assert len(pd.read_csv(table)) == 2 and len(read_journal(journal_path(table))) == 2
     again = FakeSolve()
     monkeypatch.setattr(sw, "solve", again)
     df = run_sweep(pts, table=table, workers=1, progress=False)
     assert [c[0] for c in again.calls] == [0.5, 0.6] and df.converged.all()
+
+
+def test_ctrl_c_right_after_a_journal_line_counts_that_point_as_kept(fake, monkeypatch,
+                                                                      tmp_path):
+    """Ctrl-C lands while a finished point's line is being written (the line is on disk,
+    the loop has not counted it): the message counts what the journal holds."""
+    table = tmp_path / "t.csv"
+    write = runner.Journal.append
+    calls = []
+
+    def append(self, rec):
+        write(self, rec)
+        calls.append(rec)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner.Journal, "append", append)
+    with pytest.raises(runner.StudyInterrupted) as info:
+        run_sweep(grid(length=[0.3, 0.4, 0.5]), table=table, workers=1, progress=False)
+    assert (info.value.finished, info.value.new) == (2, 2)
+    assert len(pd.read_csv(table)) == 2
 
 
 def test_parquet_table_has_the_same_contents(fake, tmp_path):
@@ -557,3 +582,73 @@ def test_the_sweep_command_sweeps_the_start(fake, tmp_path):
     assert list(pd.read_csv(tmp_path / "b.csv").start) == ["coarse"]
     with pytest.raises(ParameterError, match="start"):
         check_point({"length": 0.5, "start": "fine"})
+
+
+_SLEEPY_SCRIPT = """
+import os, sys, time
+from dataclasses import replace
+from skfem_sheet.studies import runner
+from skfem_sheet.studies import sweep as sw
+
+def task(points):  # length 0.5 at once; the others hold their worker for 5 minutes
+    out = []
+    for p in points:
+        if p["length"] > 0.5:
+            open(os.path.join(sys.argv[2], str(os.getpid())), "w").close()
+            time.sleep(300)
+        rec = sw._record(p, sw.point_key(p))
+        rec.update(deflection=p["length"], converged=True)
+        out.append(rec)
+    return out
+
+if __name__ == "__main__":
+    pts = sw.grid(length=[0.5, 0.6, 0.7])
+    try:
+        runner.execute(pts, [sw.point_key(p) for p in pts], replace(sw._JOB, task=task),
+                       table=sys.argv[1], workers=2, scheduler=None, progress=False,
+                       retry_failed=False, chunker=lambda todo, n: [[p] for p in todo])
+    except runner.StudyInterrupted as err:
+        print(err, file=sys.stderr)
+        sys.exit(130)
+"""
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            return "\nState:\tZ" not in fh.read()
+    except FileNotFoundError:
+        return False
+
+
+def test_ctrl_c_on_a_process_pool_abandons_the_running_points_within_seconds(tmp_path):
+    """Ctrl-C (SIGINT to the process group, as a terminal sends it) while two
+    workers are each in a 5-minute point: the study exits within seconds (it
+    took 37-67 s, the points' remaining time, when the pool forgot its workers
+    before killing them), the workers are gone, the finished point is kept."""
+    script, pids, table = tmp_path / "study.py", tmp_path / "pids", tmp_path / "t.csv"
+    script.write_text(_SLEEPY_SCRIPT)
+    pids.mkdir()
+    proc = subprocess.Popen([sys.executable, str(script), str(table), str(pids)],
+                            start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while len(os.listdir(pids)) < 2 and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.05)
+        assert len(os.listdir(pids)) == 2, "the workers did not start their points"
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        took = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    assert proc.returncode == 130, err
+    assert took < 10, f"{took:.1f} s to exit after Ctrl-C"
+    time.sleep(0.5)
+    assert not [p for p in os.listdir(pids) if _alive(int(p))], "workers still running"
+    assert f"1 of 3 points are finished (1 in this run) and kept in {table}" in err
+    assert list(pd.read_csv(table).length) == [0.5]

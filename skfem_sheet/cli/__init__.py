@@ -22,6 +22,9 @@ exposes ``register(subparsers)``, which adds the command's parser and sets
 Bad arguments give a one-line message naming the parameter and the allowed
 range, and exit code 2 (no traceback).  A solve that does not reach full load
 prints why and exits with code 1 (its JSON says ``"converged": false``).
+Ctrl-C exits with code 130 within seconds (measured 0.7-2.7 s; a factorisation
+under way finishes first); a study (``sweep``, ``fold-map``, ``figure``) abandons
+the points in flight and says how many it finished and kept, and where.
 """
 from __future__ import annotations
 
@@ -82,6 +85,6 @@ def main(argv=None) -> int:
     except ParameterError as err:
         print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{parser.prog} {args.command}: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as err:   # a study's says what it kept (StudyInterrupted)
+        print(f"{parser.prog} {args.command}: {err or 'interrupted'}", file=sys.stderr)
         return 130

@@ -1,29 +1,50 @@
-"""``skfem-sheet bistability``: pop-up and standout lengths of one sheet, optional S-curve.
+"""``skfem-sheet bistability``: pop-up and standout lengths of a planform at a curvature.
 
-With ``--at-length`` instead: continuation in the clamp curvature at a fixed
-length, giving the critical curvatures.  See :mod:`skfem_sheet.bistability`.
+The fold lengths ``L0*`` (pop-up) and ``L1*`` (standout) of a trapezoid (tip
+width b/a) at a clamp curvature a/R: the planform at that curvature is
+bistable for lengths between them.  That is a property of the family of
+lengths; ``--length`` (or a sheet in SI units, ``--si``) says where one
+sheet's length sits against them (``solve --path both`` solves that sheet on
+both load paths).  Optional S-curve.  With ``--at-length`` instead:
+continuation in the clamp curvature at a fixed length, giving the critical
+curvatures.  See :mod:`skfem_sheet.bistability`.
 """
 from __future__ import annotations
 
 from ..bistability import fold_lengths, follow_curvature, s_curve
 from ..io import Series, check_directory, check_writable, write_json
 from ..params import ParameterError, Sheet
+from ..states import fold_position
 from .ranges import parse_range
-from .solve import solver_help
+from .solve import SI_HELP, si_sheet, solver_help
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "DEFAULTS"]
+
+#: The defaults of the planform's flags (``None`` in the parser, so that
+#: ``--si`` can tell which were given).
+DEFAULTS = {"tip_width": 1.0, "curvature": 2.5, "thickness": 0.03, "modulus": 735.0}
 
 
 def register(subparsers) -> None:
     """Add the ``bistability`` command."""
     p = subparsers.add_parser(
-        "bistability", help="pop-up and standout lengths (continuation in L), optional S-curve")
-    p.add_argument("--tip-width", type=float, default=1.0, help="b/a (1 rectangle, 0 triangle)")
-    p.add_argument("--curvature", type=float, default=2.5, help="a/R, clamp curvature")
-    p.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
-    p.add_argument("--modulus", type=float, default=735.0, help="E/(rho g a) (default 735)")
-    p.add_argument("--lengths", default="0.6:2.4",
-                   help="range of L/a searched, short:long (default 0.6:2.4)")
+        "bistability", help="the lengths over which a planform at a curvature is bistable "
+                            "(pop-up and standout lengths), optional S-curve",
+        description=__doc__.split("\n\n")[1].replace("``", ""))
+    p.add_argument("--tip-width", type=float, default=None,
+                   help="b/a (1 rectangle, 0 triangle; default 1)")
+    p.add_argument("--curvature", type=float, default=None,
+                   help="a/R, clamp curvature (default 2.5)")
+    p.add_argument("--thickness", type=float, default=None, help="h/a (default 0.03)")
+    p.add_argument("--modulus", type=float, default=None, help="E/(rho g a) (default 735)")
+    p.add_argument("--length", type=float, default=None,
+                   help="L/a of one sheet: say where it sits against the fold lengths")
+    p.add_argument("--si", default=None, metavar="NAME=VALUE,...",
+                   help=SI_HELP.replace("the sheet", "one sheet") + "; its planform, "
+                        "curvature and material, and where its length sits")
+    p.add_argument("--lengths", default=None,
+                   help="range of L/a searched, short:long (default 0.6:2.4, widened to "
+                        "hold --length)")
     p.add_argument("--hmax", type=float, default=0.06, help="mesh size (default 0.06)")
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--solver", default="auto", help=solver_help())
@@ -47,31 +68,100 @@ def register(subparsers) -> None:
     p.set_defaults(run=run)
 
 
+def _planform(args):
+    """Fill the planform's flags in ``args`` (from ``--si``, or the defaults);
+    the sheet's length to place (``--length`` or the SI sheet's), or None."""
+    given = [k for k in DEFAULTS if getattr(args, k) is not None]
+    length = args.length
+    if args.si is not None:
+        flags = ["--" + k.replace("_", "-") for k in given]
+        flags += ["--length"] if args.length is not None else []
+        flags += ["--at-length"] if args.at_length is not None else []
+        if flags:
+            raise ParameterError(f"--si cannot be combined with {', '.join(flags)} (give every "
+                                 f"quantity in --si, in SI units)")
+        sheet = si_sheet(args.si)
+        for k in DEFAULTS:
+            setattr(args, k, getattr(sheet, k))
+        return sheet.length
+    for k, v in DEFAULTS.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+    if length is not None and args.at_length is not None:
+        raise ParameterError("--length cannot be combined with --at-length (the length of "
+                             "the continuation in the curvature)")
+    return length
+
+
+def _range(args, length):
+    """``--lengths`` (checked to hold ``length``), or its default widened to hold it."""
+    if args.lengths is None:
+        if length is None:
+            return 0.6, 2.4
+        return min(0.6, 0.8 * length), max(2.4, min(20.0, 1.25 * length))
+    lo, hi = parse_range(args.lengths, "lengths", pair="short:long", example="0.6:2.4")
+    if length is not None and not lo < length < hi:
+        raise ParameterError(f"lengths must hold the sheet's length L/a = {length:g}, got "
+                             f"{args.lengths!r}")
+    return lo, hi
+
+
+def _fold_text(r, which):
+    """One fold length and what it is, for the table (no solver jargon)."""
+    b = r.increasing if which == "standout" else r.decreasing
+    x = r.standout_length if which == "standout" else r.popup_length
+    branch = "curvature-dominated" if which == "standout" else "gravity-dominated"
+    lo, hi = r.length_range
+    if x is not None:
+        return f"{x:.3f} +- {r.tol:g}  (the {branch} branch ends there)"
+    if b.start_snapped:
+        end = lo if which == "standout" else hi
+        return (f"none: the {branch} branch does not exist at L/a = {end:g}, where it was "
+                f"started (widen --lengths)")
+    if b.reason:
+        return f"not found: the {branch} branch was lost for another reason ({b.reason})"
+    end = hi if which == "standout" else lo
+    return f"none in range (the {branch} branch held to L/a = {end:g})"
+
+
 def run(args) -> int:
     """Fold lengths (or, with ``--at-length``, critical curvatures); print, write JSON."""
     if args.json:
         check_writable("--json", args.json, [".json"])
     if args.series:
         check_directory("--series", args.series)
-    Sheet(length=1.0, tip_width=args.tip_width, curvature=args.curvature,
+    length = _planform(args)
+    Sheet(length=length or 1.0, tip_width=args.tip_width, curvature=args.curvature,
           thickness=args.thickness, modulus=args.modulus)  # validates the parameters
     if args.at_length is not None:
         return _run_curvature(args)
-    lo, hi = parse_range(args.lengths, "lengths", pair="short:long", example="0.6:2.4")
+    lo, hi = _range(args, length)
     series = (Series(), Series()) if args.series else (None, None)
     r = fold_lengths(args.tip_width, args.curvature, lengths=(lo, hi), hmax=args.hmax,
                      layers=args.layers, solver=args.solver, step=args.step, tol=args.tol,
                      thickness=args.thickness, modulus=args.modulus, progress=not args.quiet,
                      on_point=tuple(None if x is None else x.on_point for x in series))
     data = r.summary()
-
-    def fmt(x):
-        return "none in range" if x is None else f"{x:.3f} +- {r.tol:g}"
-
-    print(f"b/a = {args.tip_width:g}, a/R = {args.curvature:g}, hmax = {args.hmax:g}:")
-    print(f"  standout length L1*/a = {fmt(r.standout_length)}  ({r.increasing.reason or 'held'})")
-    print(f"  pop-up length   L0*/a = {fmt(r.popup_length)}  ({r.decreasing.reason or 'held'})")
-    print(f"  bistable: {'yes' if r.bistable else 'no'}  ({r.wall_time_s:.0f} s)")
+    data["thickness"], data["modulus"] = args.thickness, args.modulus
+    print(f"planform b/a = {args.tip_width:g} at a/R = {args.curvature:g}, h/a = "
+          f"{args.thickness:g}, E/(rho g a) = {args.modulus:g}; hmax {args.hmax:g}, L/a "
+          f"searched in [{lo:g}, {hi:g}]  ({r.wall_time_s:.0f} s):")
+    print(f"  standout length L1*/a = {_fold_text(r, 'standout')}")
+    print(f"  pop-up length   L0*/a = {_fold_text(r, 'popup')}")
+    family = f"this planform (b/a = {args.tip_width:g}) at a/R = {args.curvature:g}"
+    if r.bistable:
+        print(f"  {family} is bistable for {r.popup_length:.3f} < L/a < "
+              f"{r.standout_length:.3f}: two stable states at each length in between")
+    elif r.popup_length is not None and r.standout_length is not None \
+            and r.standout_length > r.popup_length:
+        print(f"  {family}: the folds are closer than twice their resolution ({r.tol:g}): "
+              f"no bistable range is claimed")
+    else:
+        print(f"  {family} is not bistable for any L/a in [{lo:g}, {hi:g}] searched")
+    if length is not None:
+        pos = fold_position(r, length)
+        data["position"] = pos.to_json()
+        print(f"  this sheet: {pos.text}")
     if args.series:
         down = r.decreasing if len(series[1]) else None  # a flat clamp: one branch
         _write_series(args.series, [("curvature-dominated", r.increasing, series[0]),
@@ -114,10 +204,20 @@ def _run_curvature(args) -> int:
     def fmt(x):
         return "none in range" if x is None else f"{x:.3f} +- {args.tol:g}"
 
-    print(f"L/a = {args.at_length:g}, b/a = {args.tip_width:g}, hmax = {args.hmax:g}:")
-    print(f"  pop-up curvature a/R0* = {fmt(k0)}  ({up.reason or 'held'})")
-    print(f"  fall curvature   a/R1* = {fmt(k1)}  ({down.reason or 'held'})")
-    print(f"  bistable for a/R1* < a/R < a/R0*: {'yes' if bistable else 'no'}")
+    def why(b, what):
+        if b.fold is not None:
+            return f"(the {what} branch ends there)"
+        return f"({b.reason})" if b.reason else f"(the {what} branch held)"
+
+    print(f"L/a = {args.at_length:g}, b/a = {args.tip_width:g}, h/a = {args.thickness:g}, "
+          f"E/(rho g a) = {args.modulus:g}; hmax {args.hmax:g}, a/R searched in "
+          f"[{k_lo:g}, {k_hi:g}]:")
+    print(f"  pop-up curvature a/R0* = {fmt(k0)}  {why(up, 'gravity-dominated')}")
+    print(f"  fall curvature   a/R1* = {fmt(k1)}  {why(down, 'curvature-dominated')}")
+    sheet = f"this sheet (L/a = {args.at_length:g}, b/a = {args.tip_width:g})"
+    print(f"  {sheet} is bistable for {k1:.3f} < a/R < {k0:.3f}: two stable states at each "
+          f"curvature in between" if bistable else
+          f"  {sheet} is not bistable for any a/R in [{k_lo:g}, {k_hi:g}] searched")
     if args.series:
         _write_series(args.series, [("gravity-dominated", up, series[0]),
                                     ("curvature-dominated", down, series[1])])
@@ -128,6 +228,7 @@ def _run_curvature(args) -> int:
                     "bracket": list(b.bracket), "reason": b.reason}
 
         write_json({"length": args.at_length, "tip_width": args.tip_width,
+                    "thickness": args.thickness, "modulus": args.modulus,
                     "popup_curvature": k0, "fall_curvature": k1, "bistable": bistable,
                     "gravity_dominated": branch(up), "curvature_dominated": branch(down)},
                    args.json)

@@ -96,7 +96,8 @@ def _run_curves(args, tip_widths) -> int:
     df = fold_curves(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
                      progress=not args.quiet, retry_failed=args.retry_failed)
 
-    print(f"hmax = {args.hmax:g}, fold curves")
+    print(f"hmax = {args.hmax:g}, h/a = {points[0]['thickness']:g}, E/(rho g a) = "
+          f"{points[0]['modulus']:g}, fold curves")
     print_curve_table(df)
     print("  a/R    b/a   L0* pop-up  L1* standout  (interpolated on the fold curves)")
     for _, r in df[df["second"] == "tip_width"].iterrows():
@@ -134,7 +135,8 @@ def run(args) -> int:
     def fmt(x):
         return "   none" if not np.isfinite(x) else f"{x:7.3f}"
 
-    print(f"hmax = {args.hmax:g}, L/a searched in [{lengths[0]:g}, {lengths[1]:g}]")
+    print(f"hmax = {args.hmax:g}, h/a = {points[0]['thickness']:g}, E/(rho g a) = "
+          f"{points[0]['modulus']:g}, L/a searched in [{lengths[0]:g}, {lengths[1]:g}]")
     print("  a/R    b/a   L0* pop-up  L1* standout  bistable  converged")
     for _, r in df.iterrows():
         print(f"{r.curvature:5.2f}  {r.tip_width:5.2f}      {fmt(r.popup_length)}       "

@@ -34,6 +34,7 @@ from ..reduced.maps import jump_curve, plot_map, ribbon_map, write_map_csv
 from ..reduced.persistence import persistence_length
 from ..reduced.ribbon import ribbon_continuation
 from .ranges import parse_range
+from .solve import SI_HELP, si_sheet
 
 __all__ = ["register"]
 
@@ -43,10 +44,31 @@ def _write_json(path, payload) -> None:
         write_json(payload, path)
 
 
+#: The defaults of the sheet's flags (``None`` in the parser, so that ``--si``
+#: can tell which were given).
+_DEFAULTS = {"curvature": 0.0, "thickness": 0.03, "modulus": 735.0}
+
+
 def _sheet(args, length=None) -> Sheet:
-    """The sheet of the flags: a trapezoid, or the ``--planform`` file's profile."""
-    params = dict(curvature=getattr(args, "curvature", 0.0) or 0.0,
-                  thickness=args.thickness, modulus=args.modulus)
+    """The sheet of the flags: a trapezoid, the ``--planform`` file's profile,
+    or the ``--si`` sheet."""
+    if getattr(args, "si", None) is not None:
+        given = [k for k in ("length", "tip_width", "curvature", "thickness", "modulus",
+                             "planform") if getattr(args, k, None) is not None]
+        if given:
+            flags = ", ".join("--" + k.replace("_", "-") for k in given)
+            raise ParameterError(f"--si cannot be combined with {flags} (give every quantity "
+                                 f"in --si, in SI units)")
+        sheet = si_sheet(args.si)
+        if not hasattr(args, "curvature") and sheet.curvature != 0:
+            print(f"  (this model has no clamp curvature: a/R = {sheet.curvature:.6g} is "
+                  f"left out)")
+            sheet = sheet.replace(curvature=0.0)
+        return sheet
+    if getattr(args, "curvature", None) is None and getattr(args, "required_curvature", False):
+        raise ParameterError("--curvature is required (a/R, the clamp curvature), or --si")
+    params = {k: v if getattr(args, k, None) is None else getattr(args, k)
+              for k, v in _DEFAULTS.items()}
     if length is None:
         length = args.length
     if getattr(args, "planform", None):
@@ -55,7 +77,7 @@ def _sheet(args, length=None) -> Sheet:
                                  "(the planform gives the width)")
         return Sheet.from_planform(read_planform_csv(args.planform), length=length, **params)
     if length is None:
-        raise ParameterError("--length is required (or --planform FILE.csv)")
+        raise ParameterError("--length is required (or --planform FILE.csv, or --si)")
     tip = 1.0 if args.tip_width is None else args.tip_width
     return Sheet(length=length, tip_width=tip, **params)
 
@@ -152,19 +174,22 @@ def _cmd_map(args) -> int:
 # -- parser --------------------------------------------------------------------------
 def _common(parser, length=True, curvature=True, required_curvature=False, planform=False):
     if length:
-        parser.add_argument("--length", type=float, required=not planform,
+        parser.add_argument("--length", type=float, default=None,
                             help="L/a" + (" (default with --planform: its last x)"
-                                          if planform else ""))
+                                          if planform else "") + " (or --si)")
+        parser.add_argument("--si", default=None, metavar="NAME=VALUE,...", help=SI_HELP)
+        parser.set_defaults(required_curvature=required_curvature)
     parser.add_argument("--tip-width", type=float, default=None, help="b/a (default 1)")
     if planform:
         parser.add_argument("--planform", default=None, metavar="FILE.csv",
                             help="width profile instead of a trapezoid: CSV with columns "
                                  "x,width (x from 0 to L; L is the last x)")
     if curvature:
-        parser.add_argument("--curvature", type=float, default=None if required_curvature
-                            else 0.0, required=required_curvature, help="a/R")
-    parser.add_argument("--thickness", type=float, default=0.03, help="h/a (default 0.03)")
-    parser.add_argument("--modulus", type=float, default=735.0,
+        parser.add_argument("--curvature", type=float, default=None,
+                            help="a/R" + (" (required, or --si)" if required_curvature
+                                          else " (default 0)"))
+    parser.add_argument("--thickness", type=float, default=None, help="h/a (default 0.03)")
+    parser.add_argument("--modulus", type=float, default=None,
                         help="E/(rho g a) (default 735)")
 
 

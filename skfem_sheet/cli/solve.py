@@ -1,4 +1,4 @@
-"""``skfem-sheet solve``: one sheet along one load path (also the code path of ``demo``).
+"""``skfem-sheet solve``: one sheet along one load path, or both (also the code path of ``demo``).
 
 The sheet is given either in its dimensionless parameters (``--length``,
 ``--tip-width``, ...) or in SI units with one flag, ``--si
@@ -6,7 +6,10 @@ base_width=0.05,length=0.065,tip_width=0.05,thickness=1.5875e-3,radius=0.02,
 youngs_modulus=4.5e5,density=1250`` (``gravity`` optional, default 9.81;
 metres, Pa, kg/m^3, m/s^2; ``radius=inf`` for a flat clamp), mapped through
 ``Sheet.from_si``; the dimensionless parameters it
-gives are printed.
+gives are printed.  ``--path both`` solves both load paths and says whether
+the two end states differ (is this sheet bistable?), with both deflections
+and their stability; ``--folds`` adds where its length sits against the fold
+lengths (:func:`skfem_sheet.states.solve_both`).
 """
 from __future__ import annotations
 
@@ -15,14 +18,18 @@ import math
 from dataclasses import replace
 
 from ..analyses.sensitivity import SI_UNITS
+from ..continuation import PATHS
 from ..io import Series, check_directory, check_writable
 from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
 from ..solve import STARTS, CoarseStart, solve
+from ..states import sheet_line, solve_both, with_path
+from .ranges import parse_range
 
-__all__ = ["register", "run", "add_sheet_args", "add_solve_args", "parse_si", "sheet_from_args",
-           "SHEET_DEFAULTS", "SI_NAMES", "solver_help"]
+__all__ = ["register", "run", "run_both", "add_sheet_args", "add_solve_args", "parse_si",
+           "sheet_from_args", "si_sheet", "si_base_width", "SHEET_DEFAULTS", "SI_NAMES",
+           "SI_HELP", "solver_help"]
 
 #: The defaults of the dimensionless sheet flags (``None`` in the parser, so
 #: that ``--si`` can tell which were given).
@@ -30,6 +37,12 @@ SHEET_DEFAULTS = {"tip_width": 1.0, "curvature": 0.0, "thickness": 0.03, "modulu
 
 #: The keys of ``--si``: the parameters of :meth:`Sheet.from_si`, in order.
 SI_NAMES = tuple(inspect.signature(Sheet.from_si).parameters)
+
+#: Help text of ``--si`` (every command that takes a sheet).
+SI_HELP = ("the sheet in SI units instead: " + ", ".join(f"{n}=" for n in SI_NAMES)
+           + " (metres, Pa, kg/m^3, m/s^2; gravity optional, default 9.81; radius=inf: "
+             "flat clamp), e.g. base_width=0.05,length=0.065,tip_width=0.05,"
+             "thickness=1.5875e-3,radius=0.02,youngs_modulus=4.5e5,density=1250")
 
 _SI_REQUIRED = tuple(n for n, p in inspect.signature(Sheet.from_si).parameters.items()
                      if p.default is inspect.Parameter.empty)
@@ -46,10 +59,7 @@ def add_sheet_args(p, length=None) -> None:
     if length is None:
         g = p.add_mutually_exclusive_group(required=True)
         g.add_argument("--length", type=float, help="L/a, sheet length in base widths")
-        g.add_argument("--si", default=None, metavar="NAME=VALUE,...",
-                       help="the sheet in SI units instead: " + ", ".join(
-                           f"{n}=" for n in SI_NAMES) + " (metres, Pa, kg/m^3, m/s^2; "
-                       "gravity optional, default 9.81; radius=inf: flat clamp)")
+        g.add_argument("--si", default=None, metavar="NAME=VALUE,...", help=SI_HELP)
         g.add_argument("--planform", default=None, metavar="FILE.csv",
                        help="a width profile instead of a trapezoid: CSV with columns x,width "
                             "(x from 0 to L, L taken from the last x; width 1 at x = 0)")
@@ -67,7 +77,14 @@ def add_sheet_args(p, length=None) -> None:
 def add_solve_args(p, hmax=0.03) -> None:
     """The solve's options and output files."""
     p.add_argument("--path", default="curvature-first",
-                   help="load path: curvature-first (aloft branch) or gravity-first (drooped)")
+                   help="load path: curvature-first (aloft branch), gravity-first (drooped), "
+                        "or both: both paths, and whether their end states differ (is this "
+                        "sheet bistable?)")
+    p.add_argument("--folds", nargs="?", const="auto", default=None, metavar="SHORT:LONG",
+                   help="with --path both: also find the fold lengths L0*, L1* of this "
+                        "planform at this curvature (continuation in L/a over SHORT:LONG, "
+                        "default 0.6:2.4 widened to hold --length; a minute at hmax 0.1, "
+                        "several on finer meshes) and say where the sheet's length sits")
     p.add_argument("--hmax", type=float, default=hmax, help=f"mesh size (default {hmax})")
     p.add_argument("--layers", type=int, default=None, help="element layers through the thickness")
     p.add_argument("--refine", type=int, default=0,
@@ -153,6 +170,24 @@ def parse_si(text) -> dict:
     return out
 
 
+def si_sheet(text) -> Sheet:
+    """The :class:`Sheet` of ``--si`` text; prints what was given and the
+    dimensionless parameters it maps to."""
+    si = parse_si(text)
+    sheet = Sheet.from_si(**si)
+    print(f"SI input {', '.join(f'{k}={v:g}' for k, v in si.items())}")
+    print(f"SI input -> L/a = {sheet.length:.6g}, b/a = {sheet.tip_width:.6g}, "
+          f"a/R = {sheet.curvature:.6g}, h/a = {sheet.thickness:.6g}, "
+          f"E/(rho g a) = {sheet.modulus:.6g}")
+    return sheet
+
+
+def si_base_width(args):
+    """The base width a in metres of ``--si`` (None without it)."""
+    si = getattr(args, "si", None)
+    return None if si is None else parse_si(si)["base_width"]
+
+
 def sheet_from_args(args) -> Sheet:
     """The :class:`Sheet` of the parsed sheet flags (or of ``--si``)."""
     given = {k: getattr(args, k) for k in SHEET_DEFAULTS if getattr(args, k) is not None}
@@ -161,11 +196,7 @@ def sheet_from_args(args) -> Sheet:
             flags = ", ".join("--" + k.replace("_", "-") for k in given)
             raise ParameterError(f"--si cannot be combined with {flags} (give every quantity "
                                  f"in --si, in SI units)")
-        sheet = Sheet.from_si(**parse_si(args.si))
-        print(f"SI input -> L/a = {sheet.length:.6g}, b/a = {sheet.tip_width:.6g}, "
-              f"a/R = {sheet.curvature:.6g}, h/a = {sheet.thickness:.6g}, "
-              f"E/(rho g a) = {sheet.modulus:.6g}")
-        return sheet
+        return si_sheet(args.si)
     if getattr(args, "planform", None) is not None:
         if "tip_width" in given:
             raise ParameterError("--tip-width cannot be combined with --planform "
@@ -175,12 +206,27 @@ def sheet_from_args(args) -> Sheet:
     return Sheet(length=args.length, **{**SHEET_DEFAULTS, **given})
 
 
+def _header(sheet, args) -> str:
+    """The first line printed: every parameter of the sheet and of the mesh."""
+    return (f"sheet: {sheet_line(sheet, args.gravity)}; {args.path}, hmax {args.hmax:g}"
+            + (f", refine {args.refine}" if args.refine else "")
+            + ("" if not args.full_sheet else ", whole sheet"))
+
+
 def run(args) -> int:
     """Solve, write the files asked for, print the result; 0 if converged, else 1."""
     sheet = sheet_from_args(args)
     for name, suffix in (("json", ".json"), ("vtu", ".vtu"), ("png", ".png")):
         if getattr(args, name):
             check_writable(f"--{name}", getattr(args, name), [suffix])
+    if args.path == "both":
+        return run_both(args, sheet)
+    if args.path not in PATHS:
+        raise ParameterError(f"--path must be one of {', '.join(PATHS)}, both; got {args.path!r}")
+    if getattr(args, "folds", None) is not None:
+        raise ParameterError("--folds is for --path both (the fold lengths against both "
+                             "load paths' end states)")
+    print(_header(sheet, args), flush=True)
     series = None
     if args.series:
         check_directory("--series", args.series)
@@ -202,7 +248,14 @@ def run(args) -> int:
         plot_sheet(result, args.png)
     pvd = series.write(args.series, result.path) if series is not None and len(series) else None
     status = "converged" if result.converged else f"NOT converged: {result.message}"
-    print(f"tip deflection d/a = {result.deflection:.6f}  ({status})")
+    a = si_base_width(args)
+    print(f"tip deflection d/a = {result.deflection:.6f}"
+          + ("" if a is None else f" (d = {1e3 * a * result.deflection:.4g} mm)")
+          + f"  ({status})")
+    if result.converged:
+        stable = {True: "stable", False: "unstable", None: "stability unknown"}[result.stable]
+        print(f"  {result.branch} branch (this load path's), {stable}; --path both tells "
+              f"whether the sheet is bistable")
     print(f"  {result.path}, {result.dofs} dofs{'' if result.symmetric else ' (whole sheet)'}, "
           f"{result.newton_iterations} Newton iterations "
           f"in {result.load_steps} load steps, {result.wall_time_s:.1f} s "
@@ -224,6 +277,37 @@ def run(args) -> int:
     if result.sensitivities is not None:
         _print_sensitivities(result.sensitivities)
     return 0 if result.converged else 1
+
+
+def run_both(args, sheet) -> int:
+    """``--path both``: both load paths, whether their end states differ, the fold
+    lengths with ``--folds``; 0 if both converged, else 1."""
+    for flag in ("series", "sensitivities"):
+        if getattr(args, flag, None):
+            raise ParameterError(f"--{flag} is for one load path: run --path curvature-first "
+                                 f"and --path gravity-first, each with its own --{flag}")
+    lengths = None
+    if args.folds not in (None, "auto"):
+        lengths = parse_range(args.folds, "--folds", pair="short:long", example="0.6:2.4")
+    print(_header(sheet, args), flush=True)
+    states = solve_both(sheet, hmax=args.hmax, folds=args.folds is not None, lengths=lengths,
+                        progress=not args.quiet, layers=args.layers, refine=args.refine,
+                        solver=args.solver, symmetric=not args.full_sheet, start=_start(args),
+                        coarse_hmax=args.coarse_hmax, gravity=args.gravity)
+    for line in states.lines(si_base_width(args))[1:]:   # the first: the header, printed
+        print(line)
+    written = []
+    if args.json:
+        written += states.write(args.json)
+    if args.vtu:
+        written += states.write(args.vtu)
+    if args.png:
+        for r in (states.curvature_first, states.gravity_first):
+            written.append(with_path(args.png, r.path))
+            plot_sheet(r, written[-1])
+    for f in written:
+        print(f"  wrote {f}")
+    return 0 if states.converged else 1
 
 
 def _print_sensitivities(sens) -> None:

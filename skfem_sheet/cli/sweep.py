@@ -13,11 +13,9 @@ Examples
 """
 from __future__ import annotations
 
-import sys
-
 from ..io import check_writable
 from ..params import ParameterError
-from ..studies.sweep import check_point, grid, journal_path, point_key, read_journal, run_sweep
+from ..studies.sweep import check_point, grid, run_sweep
 from .ranges import parse_values
 from .solve import solver_help
 
@@ -65,7 +63,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Check every point up front, run the sweep, print a summary; 0, or 130 on Ctrl-C."""
+    """Check every point up front, run the sweep, print a summary; 0 (Ctrl-C: the
+    main entry point says what was kept, code 130)."""
     if args.workers is not None and args.workers < 1:
         raise ParameterError(f"--workers must be an integer >= 1, got {args.workers}")
     paths = _PATHS if args.paths.strip() == "both" else \
@@ -88,17 +87,8 @@ def run(args) -> int:
     for p in points:
         check_point(p)
     check_writable("--table", args.table, [".csv", ".parquet"])
-    try:
-        df = run_sweep(points, table=args.table, workers=args.workers,
-                       scheduler=args.scheduler, progress=not args.quiet,
-                       retry_failed=args.retry_failed)
-    except KeyboardInterrupt:
-        done = read_journal(journal_path(args.table))
-        keys = set(point_key(p) for p in points)
-        print(f"skfem-sheet sweep: interrupted; {len(keys & set(done))} of {len(keys)} points "
-              f"are finished and kept in {args.table}; run the same command again to resume",
-              file=sys.stderr)
-        return 130
+    df = run_sweep(points, table=args.table, workers=args.workers, scheduler=args.scheduler,
+                   progress=not args.quiet, retry_failed=args.retry_failed)
     info = df.attrs["sweep"]
     rows = df.drop_duplicates("key")
     n_conv = int(rows.converged.sum())

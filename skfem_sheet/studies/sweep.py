@@ -39,9 +39,11 @@ A failed solve (full load not reached), a bad parameter (``ParameterError``)
 and any other exception raised while solving one point are rows with
 ``converged=False`` and the reason in ``message`` (the exception class in
 ``error``); the sweep carries on.  They are finished points too: pass
-``retry_failed=True`` to compute them again.  Ctrl-C stops the sweep at once
-(finished points are kept; the table is written) and re-raises
-``KeyboardInterrupt``.
+``retry_failed=True`` to compute them again.  Ctrl-C stops the sweep within
+about a second (the points in flight are abandoned, the finished ones kept,
+the table written) and raises
+:class:`~skfem_sheet.studies.runner.StudyInterrupted`, a ``KeyboardInterrupt``
+that says what was kept.
 
 Columns of the table (:data:`COLUMNS`): the parameters (:data:`PARAMETERS`,
 then :data:`OPTIONS`), then the outputs of
@@ -455,8 +457,9 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
     ParameterError
         For a bad ``points``/``table``/``workers``/``scheduler`` argument (bad
         parameter values of a point give failed rows instead).
-    KeyboardInterrupt
-        On Ctrl-C, after writing the table of the points finished so far.
+    StudyInterrupted
+        On Ctrl-C (a ``KeyboardInterrupt``), after writing the table of the
+        points finished so far; it says how many, and where.
 
     Examples
     --------

@@ -1,0 +1,256 @@
+"""Both load paths in one call (skfem_sheet.states, ``solve --path both``): whether the two
+end states differ, both deflections and stability, where a length sits against the fold
+lengths; the ``bistability`` command's verdict about the planform vs one sheet."""
+import json
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import skfem_sheet.cli.bistability as cli_bistability
+import skfem_sheet.states as states_module
+from skfem_sheet import Sheet, solve
+from skfem_sheet.bistability import Bistability, Branch, BranchPoint
+from skfem_sheet.cli import main
+from skfem_sheet.params import ParameterError
+from skfem_sheet.states import fold_position, solve_both, with_path
+
+SI = ("base_width=0.05,length=0.065,tip_width=0.05,thickness=1.5875e-3,radius=0.02,"
+      "youngs_modulus=4.5e5,density=1250")
+
+
+@pytest.fixture(scope="module")
+def bistable():
+    """The paper's rectangle, L/a 1.3, a/R 2.5, on hmax 0.2 (both paths: 2 s)."""
+    return solve_both(Sheet(length=1.3, curvature=2.5), hmax=0.2)
+
+
+def test_a_bistable_sheet_has_two_distinct_stable_states_as_two_solves_give(bistable):
+    sheet = bistable.sheet
+    up = solve(sheet, path="curvature-first", hmax=0.2)
+    down = solve(sheet, path="gravity-first", hmax=0.2)
+    assert bistable.deflections == (up.deflection, down.deflection)   # the same solves
+    assert bistable.distinct is True and bistable.bistable is True
+    assert len(bistable.states) == 2 and bistable.converged
+    assert bistable.curvature_first.stable and bistable.gravity_first.stable
+    assert bistable.separation > 0.4        # aloft vs drooped: half a base width apart
+    assert bistable.separation >= abs(down.deflection - up.deflection)
+    text = str(bistable)
+    assert "two distinct states" in text and "this sheet is bistable" in text
+    assert "curvature-dominated, stable" in text and "gravity-dominated, stable" in text
+
+
+def test_outside_the_bistable_range_both_paths_reach_one_state():
+    s = solve_both(Sheet(length=0.5, curvature=2.5), hmax=0.2)
+    assert s.converged and s.distinct is False and s.bistable is False
+    assert s.separation < 1e-9 and len(s.states) == 1
+    lines = s.lines()
+    assert "one state: both load paths reach it" in lines[-1]
+    # the branch names (the load paths' history) are not shown for one state
+    assert not any("dominated" in line for line in lines)
+
+
+def test_a_failed_path_makes_the_verdict_unknown(bistable):
+    failed = replace(bistable.gravity_first, converged=False, message="step too small")
+    s = states_module.States(bistable.curvature_first, failed, float("nan"))
+    assert s.distinct is None and s.bistable is None and not s.converged
+    assert s.states == (bistable.curvature_first,)
+    assert "NOT converged: step too small" in str(s)
+    assert "bistable: unknown" in str(s)
+
+
+def test_summary_and_files(bistable, tmp_path):
+    (js,) = bistable.write(tmp_path / "both.json")
+    data = json.loads(open(js).read())
+    assert data["distinct"] is True and data["bistable"] is True
+    assert data["deflections"]["gravity-first"] == bistable.gravity_first.deflection
+    assert data["curvature_first"]["branch"] == "curvature-dominated"
+    assert data["sheet"]["length"] == 1.3 and data["folds"] is None
+    written = bistable.write(tmp_path / "s.vtu")
+    assert written == [str(tmp_path / "s.curvature-first.vtu"),
+                       str(tmp_path / "s.gravity-first.vtu")]
+    assert all((tmp_path / f).stat().st_size > 0 for f in written)
+    assert with_path("a/b.c.png", "both") == "a/b.c.both.png"
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(path="gravity-first"), "path is not an option of solve_both"),
+    (dict(series=object()), "series is not an option of solve_both"),
+    (dict(hmax_coarse=0.1), "hmax_coarse is not an option"),
+    (dict(same_tol=0), "same_tol must be in"),
+    (dict(folds=True, gravity=0.5), "folds needs gravity 1"),
+    (dict(folds=True, lengths=(0.6, 1.0)), "lengths must hold the sheet's length 1.3"),
+])
+def test_bad_arguments_name_the_parameter(kw, match):
+    with pytest.raises(ParameterError, match=match):
+        solve_both(Sheet(length=1.3, curvature=2.5), hmax=0.2, **kw)
+
+
+def test_folds_need_a_trapezoid():
+    from skfem_sheet.params import Planform
+    sheet = Sheet.from_planform(Planform.from_samples([0, 1.3], [1, 1.2]), curvature=2.5)
+    with pytest.raises(ParameterError, match="folds needs a trapezoid"):
+        solve_both(sheet, hmax=0.2, folds=True)
+
+
+# -- where a length sits against the fold lengths ---------------------------------------------
+def _branch(lengths, fold, snapped=False, reason=""):
+    pts = tuple(BranchPoint(L, 0.1, True, 0, 3) for L in lengths)
+    bracket = () if fold is None else (fold - 0.005, fold + 0.005)
+    return Branch(pts, fold, bracket, reason, start_snapped=snapped)
+
+
+def _folds(L0=1.202, L1=1.347, up=None, down=None, curvature=2.5):
+    up = up or _branch([0.6, 1.0, L1 - 0.005], L1)
+    down = down or _branch([2.4, 1.6, L0 + 0.005], L0)
+    return Bistability(1.0, curvature, 0.1, (0.6, 2.4), L0, L1,
+                       L0 is not None and L1 is not None, up, down)
+
+
+@pytest.mark.parametrize("length, where, states", [
+    (1.3, "between", 2), (1.0, "below", 1), (2.0, "above", 1), (1.349, "at a fold", None),
+    (1.2, "at a fold", None), (3.0, "unknown", None),
+])
+def test_fold_position(length, where, states):
+    pos = fold_position(_folds(), length)
+    assert (pos.where, pos.states) == (where, states), pos.text
+
+
+def test_fold_position_when_a_branch_holds_or_is_missing():
+    held = _folds(L0=None, down=_branch([2.4, 1.0, 0.6], None))   # drooped branch to 0.6
+    pos = fold_position(held, 0.7)
+    assert pos.where == "between" and "L0* not in [0.6, 2.4]" in pos.text
+    snapped = _folds(L0=None, down=_branch([2.4, 1.0], None, snapped=True))
+    assert fold_position(snapped, 1.3).where == "unknown"
+    assert "snapped where it started" in fold_position(snapped, 1.3).text
+    flat = _folds(curvature=0.0)
+    assert fold_position(flat, 1.3).where == "one branch"
+
+
+# -- the command line ----------------------------------------------------------------------
+def test_solve_path_both_prints_the_verdict_and_writes_both(tmp_path, capsys):
+    js = tmp_path / "both.json"
+    rc = main(["solve", "--length", "1.3", "--curvature", "2.5", "--thickness", "0.03",
+               "--path", "both", "--hmax", "0.2", "--quiet", "--json", str(js),
+               "--vtu", str(tmp_path / "s.vtu")])
+    out = capsys.readouterr().out
+    assert rc == 0
+    first = out.splitlines()[0]
+    for shown in ("L/a = 1.3", "b/a = 1", "a/R = 2.5", "h/a = 0.03", "E/(rho g a) = 735",
+                  "gravity 1", "hmax 0.2"):
+        assert shown in first, first
+    assert "this sheet is bistable" in out
+    assert json.loads(js.read_text())["bistable"] is True
+    assert (tmp_path / "s.gravity-first.vtu").exists()
+
+
+def test_solve_si_echoes_every_quantity_and_the_deflection_in_mm(capsys):
+    assert main(["solve", "--si", SI, "--path", "both", "--hmax", "0.2", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "youngs_modulus=450000, density=1250" in out
+    assert "h/a = 0.03175, E/(rho g a) = 733.945" in out
+    # d = d/a * a, a = 5 cm
+    d = [float(x) for x in re.findall(r"d/a = +([-\d.]+) \(d = ([-\d.]+) mm",
+                                                    out)[0]]
+    assert d[1] == pytest.approx(50 * d[0], rel=1e-3)
+
+
+@pytest.mark.parametrize("argv, name", [
+    (["solve", "--length", "1", "--folds"], "--folds is for --path both"),
+    (["solve", "--length", "1", "--path", "both", "--series", "x"], "--series is for one"),
+    (["solve", "--length", "1", "--path", "both", "--folds", "2:1x"], "--folds must be"),
+    (["solve", "--length", "1", "--path", "both", "--sensitivities", "length"],
+     "--sensitivities is for one"),
+    (["bistability", "--si", SI, "--curvature", "2"], "--si cannot be combined with "
+                                                      "--curvature"),
+    (["bistability", "--length", "1.3", "--at-length", "1.3"], "--length cannot be combined"),
+    (["bistability", "--length", "3", "--lengths", "0.6:2.4"], "lengths must hold"),
+])
+def test_bad_arguments_are_one_line(argv, name, capsys):
+    assert main(argv + ["--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and name in err, err
+
+
+def test_bistability_says_what_it_is_about(monkeypatch, capsys, tmp_path):
+    """The verdict names the planform and curvature over a range of lengths, and says
+    where this sheet sits; no solver jargon beside a fold that was found."""
+    seen = {}
+
+    def fake(tip_width, curvature, **kw):
+        seen.update(kw, tip_width=tip_width, curvature=curvature)
+        return _folds()
+
+    monkeypatch.setattr(cli_bistability, "fold_lengths", fake)
+    js = tmp_path / "b.json"
+    assert main(["bistability", "--si", SI, "--quiet", "--json", str(js)]) == 0
+    out = capsys.readouterr().out
+    assert seen["thickness"] == pytest.approx(0.03175) and seen["curvature"] == 2.5
+    assert "h/a = 0.03175, E/(rho g a) = 733.945" in out
+    assert "this planform (b/a = 1) at a/R = 2.5 is bistable for 1.202 < L/a < 1.347" in out
+    assert "this sheet: L/a = 1.3 lies between" in out
+    assert "bistable: yes" not in out and "Newton" not in out
+    assert json.loads(js.read_text())["position"]["where"] == "between"
+    monkeypatch.setattr(cli_bistability, "fold_lengths",
+                        lambda *a, **k: _folds(L0=None, L1=None,
+                                               up=_branch([0.6, 2.4], None),
+                                               down=_branch([2.4, 0.6], None)))
+    assert main(["bistability", "--curvature", "0.5", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "is not bistable for any L/a in [0.6, 2.4]" in out
+    assert "none in range (the curvature-dominated branch held to L/a = 2.4)" in out
+    np.testing.assert_equal(seen["lengths"], (0.6, 2.4))
+
+
+# -- --si on every command that takes one sheet ---------------------------------------------
+class _Stop(Exception):
+    pass
+
+
+def test_fold_curve_si_gives_curvature_and_material_and_places_the_sheet(monkeypatch, capsys):
+    import skfem_sheet.cli.fold_curve as cli_fold_curve
+    seen = {}
+
+    def fake(curvature, **kw):
+        seen.update(kw, curvature=curvature)
+        raise _Stop
+
+    monkeypatch.setattr(cli_fold_curve, "trace_fold_curve", fake)
+    with pytest.raises(_Stop):
+        main(["fold-curve", "--si", SI.replace("tip_width=0.05", "tip_width=0.04"), "--quiet"])
+    assert seen["curvature"] == 2.5 and seen["thickness"] == pytest.approx(0.03175)
+    assert seen["modulus"] == pytest.approx(733.945, abs=1e-3)
+    assert "b/a = 0.8" in capsys.readouterr().out
+    assert main(["fold-curve", "--si", SI, "--thickness", "0.02"]) == 2
+    assert "--si cannot be combined with --thickness" in capsys.readouterr().err
+
+
+def test_place_a_sheet_against_a_fold_curve():
+    from types import SimpleNamespace
+
+    from skfem_sheet.cli.fold_curve import place
+
+    # standout from b 1 (L 1.35) down to the cusp (b 0.6, L 1.25), pop-up back to (1, 1.2)
+    pts = [dict(tip_width=b, length=L, kind=k) for b, L, k in [
+        (1.0, 1.35, "standout"), (0.8, 1.30, "standout"), (0.6, 1.25, "standout"),
+        (0.8, 1.22, "popup"), (1.0, 1.20, "popup")]]
+    curve = SimpleNamespace(second="tip_width", points=pts,
+                            cusp={"tip_width": 0.6, "length": 1.25})
+    assert place(curve, 1.26, 0.8)["where"] == "between"
+    assert place(curve, 1.26, 0.8)["states"] == 2
+    assert place(curve, 1.1, 0.8)["where"] == "below"
+    assert place(curve, 1.4, 0.8)["where"] == "above"
+    assert place(curve, 1.26, 0.5)["where"] == "beyond the cusp"
+    assert "L0* = 1.220, L1* = 1.300 at b/a = 0.8" in place(curve, 1.26, 0.8)["text"]
+
+
+@pytest.mark.parametrize("model", ["persistence", "cantilever", "elastica"])
+def test_rom_si(model, capsys):
+    assert main(["rom", model, "--si", SI]) == 0
+    out = capsys.readouterr().out
+    assert "L/a=1.3 b/a=1" in out and "h/a=0.03175 E=733.945" in out
+    if model == "elastica":
+        assert "a/R = 2.5 is left out" in out
+    assert main(["rom", model, "--si", SI, "--length", "1"]) == 2
+    assert "--si cannot be combined with --length" in capsys.readouterr().err
