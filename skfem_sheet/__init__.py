@@ -26,6 +26,7 @@ _LAZY = {
     "Result": "skfem_sheet.result",
     "SolveError": "skfem_sheet.result",
     "CoarseStart": "skfem_sheet.starts",
+    "solve_both": "skfem_sheet.states",
     "PathStart": "skfem_sheet.starts",
     "NewtonOptions": "skfem_sheet.newton",
     "StepOptions": "skfem_sheet.continuation",
@@ -33,7 +34,7 @@ _LAZY = {
 }
 
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
-           "CoarseStart", "PathStart", "calibrate", "__version__"]
+           "CoarseStart", "PathStart", "calibrate", "solve_both", "__version__"]
 
 
 def __getattr__(name):

@@ -478,11 +478,11 @@ class _Bar:
     def __init__(self, desc, start, stop):
         self.start = start
         self.bar = tqdm(total=round(abs(stop - start), 3), desc=desc, unit="L",
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| L={postfix}")
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}{postfix}]")
 
     def __call__(self, length):
         self.bar.n = round(abs(length - self.start), 3)
-        self.bar.set_postfix_str(f"{length:.3f}", refresh=True)
+        self.bar.set_postfix_str(f"L/a = {length:.3f}", refresh=True)
 
     def close(self):
         self.bar.close()

@@ -212,7 +212,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         from tqdm.auto import tqdm
 
         bar = tqdm(total=100, desc=f"{path} L={sheet.length:g} b={sheet.tip_width:g} "
-                   f"a/R={sheet.curvature:g}", unit="%", leave=False)
+                   f"a/R={sheet.curvature:g}", leave=False,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")
 
     def report(frac):
         if bar is not None:

@@ -652,3 +652,22 @@ def test_ctrl_c_on_a_process_pool_abandons_the_running_points_within_seconds(tmp
     assert not [p for p in os.listdir(pids) if _alive(int(p))], "workers still running"
     assert f"1 of 3 points are finished (1 in this run) and kept in {table}" in err
     assert list(pd.read_csv(table).length) == [0.5]
+
+
+def test_the_points_of_a_chunk_share_one_build_chain(fake, monkeypatch):
+    """One chunk is one mesh: its points are solved with one BuildChain (the
+    mesh, space and assembler built once), a new chunk gets a new one."""
+    from skfem_sheet.build import BuildChain
+
+    chains = []
+
+    def spy(sheet, path="curvature-first", hmax=0.03, **kw):
+        chains.append(kw.get("chain"))
+        return fake(sheet, path=path, hmax=hmax, **kw)
+
+    monkeypatch.setattr(sw, "solve", spy)
+    pts = grid(length=[0.5], curvature=[0.0, 1.0, 2.5])
+    sw._JOB.task(pts)
+    sw._JOB.task(pts[:1])
+    assert all(isinstance(c, BuildChain) for c in chains) and len(chains) == 4
+    assert chains[0] is chains[1] is chains[2] and chains[3] is not chains[0]

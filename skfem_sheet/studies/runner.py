@@ -406,9 +406,12 @@ class EachPoint:
     ``EachPoint(module, name)(points)`` is ``[run(p) for p in points]`` with
     ``run = module.name``, a module-level function ``run(point) -> record``
     that catches the exceptions of its computation (:func:`record_failure`).
-    The function is looked up by name when the task runs: the task pickles as
-    two strings (a spawned worker imports the module), and a function
-    replaced on its module (a test's stand-in) is the one called.
+    With ``shared``, ``[run(p, context) for p in points]`` with ``context =
+    module.shared()`` made once for the chunk (e.g. the build chain that the
+    points of one mesh share; it lives as long as the chunk's task).
+    The functions are looked up by name when the task runs: the task pickles as
+    strings (a spawned worker imports the module), and a function replaced
+    on its module (a test's stand-in) is the one called.
 
     Attributes
     ----------
@@ -416,14 +419,22 @@ class EachPoint:
         The module's import name (``__name__`` of the study).
     name : str
         The function's name in it.
+    shared : str
+        The name of a module-level factory of the chunk's shared context, or
+        ``""`` for none.
     """
 
     module: str
     name: str
+    shared: str = ""
 
     def __call__(self, points) -> list:
-        run = getattr(importlib.import_module(self.module), self.name)
-        return [run(p) for p in points]
+        module = importlib.import_module(self.module)
+        run = getattr(module, self.name)
+        if not self.shared:
+            return [run(p) for p in points]
+        context = getattr(module, self.shared)()
+        return [run(p, context) for p in points]
 
 
 def failed_record(empty_record, key_of, point, message, error) -> dict:

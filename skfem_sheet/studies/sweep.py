@@ -65,7 +65,8 @@ exceptions, ``traceback``.
 
 Work is grouped by mesh (``length, tip_width, thickness, hmax, layers, refine,
 symmetric``): the points of one mesh go to the same worker in sequence, in
-chunks, and reuse its cached mesh.  Local workers are ``spawn``-ed processes
+chunks, and share one build chain per chunk (:class:`~skfem_sheet.build.BuildChain`:
+the mesh, its space and assembler, and the coarse start's, built once for the chunk).  Local workers are ``spawn``-ed processes
 (safe with MKL and gmsh), each limited to ``cpu_count // workers`` BLAS/MKL
 threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
 are set (Dask workers get one thread from their nanny).  Results do not depend
@@ -98,6 +99,7 @@ import math
 
 import numpy as np
 
+from ..build import BuildChain
 from ..continuation import PATHS
 from ..linalg import SOLVERS, available_solvers
 from ..mesh import estimate_dofs
@@ -163,7 +165,7 @@ _KINDS = {**{name: kind for name, kind, _ in Result.RECORD_FIELDS}, "layers": "i
           "solver": "str", "version": "str", "key": "str", "error": "str",
           "finished_at": "str"}
 
-#: Parameters that fix the mesh: points sharing them reuse a worker's cached mesh.
+#: Parameters that fix the mesh: points sharing them share a chunk's build chain.
 _MESH = ("length", "tip_width", "thickness", "hmax", "layers", *OPTIONS)
 _PATHS = ("curvature-first", "gravity-first")
 
@@ -338,22 +340,30 @@ def _record(point, key):
     return rec
 
 
-def _run_point(point) -> dict:
-    """Solve one normalised point; every ``Exception`` becomes a failed record."""
-    return computed_record(point, point_key, _record, _fill_record)
+def _chain() -> BuildChain:
+    """The build chain of one chunk: its points are on one mesh (and one
+    coarse mesh of the coarse start), built once for all of them."""
+    return BuildChain(max_meshes=2)
 
 
-def _fill_record(point, rec) -> None:
+def _run_point(point, chain=None) -> dict:
+    """Solve one normalised point (with the chunk's build ``chain``); every
+    ``Exception`` becomes a failed record."""
+    return computed_record(point, point_key, _record,
+                           functools.partial(_fill_record, chain=chain))
+
+
+def _fill_record(point, rec, chain=None) -> None:
     """Solve a sweep point and put the outputs of ``Result.to_record`` into its record."""
     sheet = Sheet(**{k: point[k] for k in _SHEET})
     r = solve(sheet, path=point["path"], hmax=point["hmax"], layers=point["layers"],
-              solver=point["solver"], on_failure="return", progress=False,
+              solver=point["solver"], on_failure="return", progress=False, chain=chain,
               **{name: rec[name] for name in OPTIONS})
     rec.update({k: v for k, v in r.to_record().items() if k in _OUTPUTS})
 
 
-#: Solve points in sequence (same mesh: the worker's mesh cache is reused).
-_run_chunk = EachPoint(__name__, "_run_point")
+#: Solve points in sequence (same mesh: one build chain for the chunk).
+_run_chunk = EachPoint(__name__, "_run_point", "_chain")
 #: The record of a point whose task failed outside the solve (e.g. its worker died).
 _failed = functools.partial(failed_record, _record, point_key)
 
