@@ -387,3 +387,22 @@ def test_a_weakly_curved_rectangle_is_reported_not_bistable():
     c = trace_fold_curve(0.5, hmax=COARSE, length_range=(0.6, 1.6), check_inertia=0)
     assert not c.bistable and not c.completed and c.points == () and c.cusp is None
     assert "not bistable" in c.reason
+
+
+def test_the_trace_bar_has_a_total_that_becomes_exact_past_the_cusp():
+    """The fold-curve bar counts the way travelled in b: out of 2 (start -
+    lowest b) until the curve turns, then out of the way actually left (back
+    up to the start), so it ends at 100% (the issue: it had no total)."""
+    from types import SimpleNamespace
+
+    from skfem_sheet.foldcurve.trace import Progress
+
+    bar = Progress(True, j=1, name="b", start=1.0, low=0.0)
+    assert bar.bar.total == 2.0
+    way = [(1.3, 0.9, -1), (1.25, 0.7, -1), (1.22, 0.62, -1), (1.21, 0.63, 1), (1.2, 0.8, 1),
+           (1.2, 1.0, 1)]
+    for L, b, side in way:
+        bar(SimpleNamespace(p=np.array([L, b, 2.5]), side=side))
+    # down 1 -> 0.62 (0.38), up to 1 (0.38): the total became exact at the turn
+    assert bar.bar.total == pytest.approx(0.76) and bar.bar.n == pytest.approx(0.76)
+    bar.close()

@@ -38,19 +38,33 @@ __all__ = ["MeshMaker", "Progress", "as_fold_in_L", "fold_near", "standout_fold"
 
 
 class Progress:
-    """The tqdm bar of a trace (on stderr), one update per point."""
+    """The tqdm bar of a trace (on stderr): the way travelled in the second
+    parameter ``p_j``, out of the whole way from its start down to the lowest
+    value it may reach and back (``2 (start - low)``); once the curve has
+    turned (past the cusp, on the pop-up side) the rest of the way is known,
+    back up to the start, and the total becomes exact."""
 
-    def __init__(self, enabled, j=1, name="b"):
+    def __init__(self, enabled, j=1, name="b", start=1.0, low=0.0):
         self.j, self.name = j, name
+        self.start, self.last, self.travelled, self.turned = start, start, 0.0, False
         self.bar = None
         if enabled:
-            self.bar = tqdm(desc="fold curve", unit="pt", file=sys.stderr)
+            self.bar = tqdm(desc="fold curve", total=round(2.0 * max(start - low, 1e-9), 6),
+                            file=sys.stderr, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                            "[{elapsed}<{remaining}{postfix}]")
 
     def __call__(self, pt):
-        if self.bar is not None:
-            self.bar.update(1)
-            self.bar.set_postfix_str(f"{self.name}={pt.p[self.j]:.4f} L={pt.p[0]:.4f} "
-                                     f"{kind(pt.side)}", refresh=True)
+        if self.bar is None:
+            return
+        value = float(pt.p[self.j])
+        self.travelled += abs(value - self.last)
+        self.last = value
+        if not self.turned and kind(pt.side) == "popup":
+            self.turned = True
+            self.bar.total = round(self.travelled + max(self.start - value, 0.0), 6)
+        self.bar.n = round(min(self.travelled, self.bar.total), 6)
+        self.bar.set_postfix_str(f"{self.name} = {value:.4f}, L/a = {pt.p[0]:.4f}, "
+                                 f"{kind(pt.side)}", refresh=True)
 
     def close(self):
         if self.bar is not None:
@@ -201,8 +215,8 @@ def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=
                              remeshes=make.count - 1, meshes=tuple(make.made))
         raise ParameterError(f"no standout fold found in L from {start_length:g} to {hi:g} at "
                              f"{where}: {why}")
-    bar = Progress(o.progress, j, name)
     hi_j = bounds_j[1]
+    bar = Progress(o.progress, j, name, start=float(fold.p[j]), low=float(bounds_j[0]))
     points, cusps, per_point, stats = [], [], [], None
     engine_refact = 0
     direction, completed, reason = -1, False, ""
