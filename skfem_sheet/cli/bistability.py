@@ -16,7 +16,7 @@ from ..io import Series, check_directory, check_writable, write_json
 from ..params import ParameterError, Sheet
 from ..states import fold_position
 from .ranges import parse_range
-from .solve import SI_HELP, si_sheet, solver_help
+from .solve import SI_HELP, planform_flags, solver_help
 
 __all__ = ["register", "run", "DEFAULTS"]
 
@@ -71,22 +71,7 @@ def register(subparsers) -> None:
 def _planform(args):
     """Fill the planform's flags in ``args`` (from ``--si``, or the defaults);
     the sheet's length to place (``--length`` or the SI sheet's), or None."""
-    given = [k for k in DEFAULTS if getattr(args, k) is not None]
-    length = args.length
-    if args.si is not None:
-        flags = ["--" + k.replace("_", "-") for k in given]
-        flags += ["--length"] if args.length is not None else []
-        flags += ["--at-length"] if args.at_length is not None else []
-        if flags:
-            raise ParameterError(f"--si cannot be combined with {', '.join(flags)} (give every "
-                                 f"quantity in --si, in SI units)")
-        sheet = si_sheet(args.si)
-        for k in DEFAULTS:
-            setattr(args, k, getattr(sheet, k))
-        return sheet.length
-    for k, v in DEFAULTS.items():
-        if getattr(args, k) is None:
-            setattr(args, k, v)
+    length = planform_flags(args, DEFAULTS, also=(("--at-length", args.at_length),))
     if length is not None and args.at_length is not None:
         raise ParameterError("--length cannot be combined with --at-length (the length of "
                              "the continuation in the curvature)")

@@ -21,7 +21,7 @@ from ..io import Series, check_directory, check_writable, write_json
 from ..params import ParameterError
 from ..studies.foldmap import curve_halves
 from .ranges import parse_range
-from .solve import SI_HELP, si_sheet, solver_help
+from .solve import SI_HELP, planform_flags, solver_help
 
 #: The defaults of the sheet's flags (``None`` in the parser, so that ``--si``
 #: can tell which were given).
@@ -77,22 +77,7 @@ def _sheet_flags(args):
     """Fill the flags from ``--si`` or the defaults; the sheet's ``(L/a, q)`` to
     place against the curve (q its tip width, or its curvature with ``--in
     curvature``), or None."""
-    given = [k for k in DEFAULTS if getattr(args, k) is not None]
-    if args.si is not None:
-        flags = ["--" + k.replace("_", "-") for k in given]
-        flags += ["--length"] if args.length is not None else []
-        if flags:
-            raise ParameterError(f"--si cannot be combined with {', '.join(flags)} (give every "
-                                 f"quantity in --si, in SI units)")
-        sheet = si_sheet(args.si)
-        for k in DEFAULTS:
-            setattr(args, k, getattr(sheet, k))
-        length = sheet.length
-    else:
-        for k, v in DEFAULTS.items():
-            if getattr(args, k) is None:
-                setattr(args, k, v)
-        length = args.length
+    length = planform_flags(args, DEFAULTS)
     if length is None:
         return None
     return length, args.tip_width if args.second == "tip-width" else args.curvature

@@ -170,6 +170,31 @@ def parse_si(text) -> dict:
     return out
 
 
+def planform_flags(args, defaults, also=()):
+    """Fill the planform's flags ``defaults`` (name -> default) of a command
+    that takes one sheet's planform in ``args``, from ``--si`` or their
+    defaults; return the sheet's length (the SI sheet's, else ``--length``,
+    which may be None).  ``--si`` cannot be combined with any of the flags,
+    ``--length``, nor the further ``(flag, value)`` pairs of ``also`` that
+    were given."""
+    given = [k for k in defaults if getattr(args, k) is not None]
+    if args.si is not None:
+        flags = ["--" + k.replace("_", "-") for k in given]
+        flags += ["--length"] if args.length is not None else []
+        flags += [flag for flag, value in also if value is not None]
+        if flags:
+            raise ParameterError(f"--si cannot be combined with {', '.join(flags)} (give every "
+                                 f"quantity in --si, in SI units)")
+        sheet = si_sheet(args.si)
+        for k in defaults:
+            setattr(args, k, getattr(sheet, k))
+        return sheet.length
+    for k, v in defaults.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+    return args.length
+
+
 def si_sheet(text) -> Sheet:
     """The :class:`Sheet` of ``--si`` text; prints what was given and the
     dimensionless parameters it maps to."""
