@@ -645,4 +645,4 @@ def test_figures_package_has_no_argparse_and_one_door_to_the_studies():
     assert not hasattr(figures, "add_figure_subparser")
     # the command line calls make_figure with these arguments
     assert list(inspect.signature(figures.make_figure).parameters) == [
-        "name", "quality", "out", "data_dir", "progress", "workers"]
+        "name", "quality", "out", "data_dir", "progress", "workers", "log"]

@@ -252,6 +252,7 @@ def test_fold_curves_resume_through_the_journal(tmp_path, monkeypatch):
     pts = fm.curve_points([1.0, 2.5])
     df = fm.fold_curves(pts, table=table, workers=1, progress=False)
     assert sorted(calls) == [1.0, 2.5]
+    assert set(df.attrs["fold_curves"]["new_keys"]) == set(df.key)  # computed in this run
     ok = df[df.curvature == 2.5].iloc[0]
     assert ok.converged and ok.cusp_tip_width == 0.6 and ok.cusp_curvature == 2.5
     assert ok.n_points == 3 and fm.curve_halves(ok)["cusp"] == (0.6, 1.3)
@@ -259,6 +260,7 @@ def test_fold_curves_resume_through_the_journal(tmp_path, monkeypatch):
     assert not bad.converged and bad.error == "RuntimeError" and "boom" in bad.message
     again = fm.fold_curves(pts, table=table, workers=1, progress=False)
     assert sorted(calls) == [1.0, 2.5] and again.attrs["fold_curves"]["new"] == 0
+    assert again.attrs["fold_curves"]["new_keys"] == ()
     assert len(pd.read_csv(table)) == 2
 
 

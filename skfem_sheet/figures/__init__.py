@@ -65,13 +65,17 @@ and its drawing); ``common`` (qualities, grids, settings), ``data`` (the
 fold-map points, table and rows; the one module that imports the studies),
 ``cache`` (the one cached-table helper, written through
 :func:`skfem_sheet.io.atomic_write`), ``style`` (shared drawing), ``registry``
-(:data:`FIGURES`, :func:`make_figure`).  The modules are named ``figureN``,
+(:data:`FIGURES`, :func:`make_figure`), ``work`` (what a figure's data cost:
+:class:`DataStep`, :class:`FigureRun`, the summary table), ``batch``
+(:func:`make_all`: every figure in one run, ``figure all``).  The modules are named ``figureN``,
 not ``figN``, so that ``skfem_sheet.figures.fig2`` stays the function.
 
 Adding a figure: a module ``figureN.py`` with ``figN_points`` (if it reads
 the fold map), ``draw_figN`` (from tables) and ``figN(quality, data_dir,
-progress, workers) -> matplotlib Figure``; add ``figN`` to :data:`FIGURES`
-(the command line's choices are its keys) and its names here.
+progress, workers, log) -> matplotlib Figure`` (passing ``log`` to its data
+functions, which append their :class:`DataStep`); add ``figN`` to
+:data:`FIGURES` (the command line's choices are its keys, and ``figure all``
+draws them all) and its names here.
 
 Examples
 --------
@@ -84,6 +88,7 @@ True
 """
 from __future__ import annotations
 
+from .batch import make_all, run_order
 from .common import DEFAULT_DATA_DIR, PAPER_GRID, QUALITIES, QUICK_GRID, quality_settings
 from .data import fold_map_table, map_grid_points, row_branches
 from .figure2 import draw_fig2, fig2, fig2_points
@@ -97,6 +102,7 @@ from .figureS3 import draw_figS3, figS3, figS3_data
 from .figureS4 import draw_figS4, figS4, figS4_data
 from .registry import FIGURES, make_figure
 from .style import COLUMN_WIDTH, DPI, FULL_WIDTH
+from .work import DataStep, FigureRun, summary_json, summary_text
 
 __all__ = ["FIGURES", "QUALITIES", "DEFAULT_DATA_DIR", "QUICK_GRID", "PAPER_GRID",
            "quality_settings", "make_figure", "map_grid_points", "fold_map_table",
@@ -106,4 +112,5 @@ __all__ = ["FIGURES", "QUALITIES", "DEFAULT_DATA_DIR", "QUICK_GRID", "PAPER_GRID
            "fig2_points", "fig4_points", "fig5_points", "fig6_points", "fig7_points",
            "draw_fig2", "draw_fig3", "draw_fig4", "draw_fig5", "draw_fig6", "draw_fig7",
            "fig3_sheets", "fig3_data", "fig5_ribbon", "fig6_ribbon", "row_branches",
-           "bistable_region", "COLUMN_WIDTH", "FULL_WIDTH", "DPI"]
+           "bistable_region", "COLUMN_WIDTH", "FULL_WIDTH", "DPI", "make_all", "run_order",
+           "DataStep", "FigureRun", "summary_text", "summary_json"]

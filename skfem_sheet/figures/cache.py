@@ -29,7 +29,7 @@ import pandas as pd
 from ..io import atomic_write
 from ..params import ParameterError
 
-__all__ = ["data_folder", "cached"]
+__all__ = ["data_folder", "cached", "load_or_compute"]
 
 _SUFFIXES = (".csv", ".npz")
 
@@ -97,13 +97,27 @@ def cached(path, compute, accept=None):
         returned it) after writing it atomically
         (:func:`skfem_sheet.io.atomic_write`).
     """
+    return load_or_compute(path, compute, accept)[0]
+
+
+def load_or_compute(path, compute, accept=None):
+    """:func:`cached`, and whether the table was computed now: ``(table, computed)``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> fn = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> make = lambda: pd.DataFrame({"x": [1.0]})
+    >>> load_or_compute(fn, make)[1], load_or_compute(fn, make)[1]
+    (True, False)
+    """
     path = os.fspath(path)
     if not path.endswith(_SUFFIXES):
         raise ParameterError(f"path must end with {' or '.join(_SUFFIXES)}, got {path!r}")
     if os.path.exists(path):
         data = _read(path)
         if accept is None or accept(data):
-            return data
+            return data, False
     data = compute()
     atomic_write(path, _encode(path, data))
-    return data
+    return data, True

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 
 import numpy as np
 import pandas as pd
@@ -23,11 +24,12 @@ from ..params import ParameterError
 from ..studies import foldmap
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
+from .work import DataStep, note
 
 __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "branch_snapped",
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
-           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method"]
+           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
@@ -70,11 +72,13 @@ def map_grid_points(quality: str = "quick", select=None) -> list:
 
 
 def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True,
-                   workers=None):
+                   workers=None, log=None):
     """Rows of the quality's fold-map table for ``points`` (computing the missing ones).
 
     The table is ``data_dir/foldmap-<quality>.csv`` with its journal; points
-    already journalled are read, not recomputed.
+    already journalled are read, not recomputed.  ``log``: a list to append
+    this step's :class:`~skfem_sheet.figures.work.DataStep` to (factorisations:
+    the computed rows' ``newton_iterations``).
 
     Returns
     -------
@@ -86,7 +90,11 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     >>> df = fold_map_table(fig2_points("quick"), "quick", "skfem_sheet_data")  # doctest: +SKIP
     """
     table = os.path.join(data_folder(data_dir), f"foldmap-{quality}.csv")
-    return foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+    t0 = time.perf_counter()
+    df = foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+    note(log, study_step("fold map", df, df.attrs["fold_map"], "newton_iterations",
+                         time.perf_counter() - t0))
+    return df
 
 
 def figure_method(method=None) -> str:
@@ -121,11 +129,56 @@ def fold_curve_points(quality: str = "quick", curvatures=None, rectangle: bool =
 
 
 def fold_curve_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True,
-                     workers=None):
+                     workers=None, log=None):
     """Rows of the quality's fold-curve table ``data_dir/foldcurves-<quality>.csv``
-    for ``points`` (tracing the curves not yet journalled), one per curve."""
+    for ``points`` (tracing the curves not yet journalled), one per curve;
+    ``log`` as in :func:`fold_map_table` (factorisations: the rows' own)."""
     table = os.path.join(data_folder(data_dir), f"foldcurves-{quality}.csv")
-    return foldmap.fold_curves(points, table=table, workers=workers, progress=progress)
+    t0 = time.perf_counter()
+    df = foldmap.fold_curves(points, table=table, workers=workers, progress=progress)
+    note(log, study_step("fold curves", df, df.attrs["fold_curves"], "factorizations",
+                         time.perf_counter() - t0))
+    return df
+
+
+def _unit_name(row) -> str:
+    """A map point or fold curve in words: ``b/a 1, a/R 5``, ``a/R 5``, ``b/a 1 in a/R``."""
+    if "second" not in row:
+        return f"b/a {float(row['tip_width']):g}, a/R {float(row['curvature']):g}"
+    if row["second"] == "curvature":
+        return f"b/a {float(row['tip_width']):g} in a/R"
+    return f"a/R {float(row['curvature']):g}"
+
+
+def study_step(what, df, stats, counter, wall_time_s) -> DataStep:
+    """The :class:`~skfem_sheet.figures.work.DataStep` of a study's table ``df``:
+    its rows computed in this run (``stats["new_keys"]``, the runner's), their
+    ``counter`` column summed as the factorisations, their ``wall_time_s``
+    summed and the longest of them.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"key": ["a", "b"], "tip_width": [1.0, 0.0], "curvature": [5.0, 5.0],
+    ...                    "newton_iterations": [40, 10], "wall_time_s": [30.0, 5.0]})
+    >>> s = study_step("fold map", df, {"new_keys": ("a",), "cached": 1}, "newton_iterations",
+    ...                31.0)
+    >>> s.computed, s.cached, s.factorizations, s.longest
+    (1, 1, 40, 'b/a 1, a/R 5 (30 s)')
+    """
+    new = set(stats.get("new_keys", ()))
+    rows = df[df["key"].isin(new)].drop_duplicates("key") if len(df) and new else df.iloc[:0]
+    counts = pd.to_numeric(rows[counter], errors="coerce").astype(float)
+    times = pd.to_numeric(rows["wall_time_s"], errors="coerce").astype(float)
+    longest = ""
+    if len(rows) and times.notna().any():
+        i = int(np.nanargmax(times.to_numpy(float)))
+        longest = f"{_unit_name(rows.iloc[i])} ({times.iloc[i]:.0f} s)"
+    return DataStep(what, computed=len(new), cached=int(stats.get("cached", 0)),
+                    solves=len(new), factorizations=int(counts.fillna(0).sum()),
+                    wall_time_s=float(wall_time_s),
+                    compute_s=float(times.sum()) if times.notna().any() else math.nan,
+                    longest=longest)
 
 
 # -- reading rows --------------------------------------------------------------------------

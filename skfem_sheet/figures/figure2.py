@@ -96,10 +96,12 @@ def draw_fig2(df, quality: str = "paper"):
     return fig
 
 
-def fig2(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig2(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. 2: tip deflection d/a against L/a from simulations (rectangles, triangles).
 
     Reads (computing what is missing) the fold map ``data_dir/foldmap-<quality>.csv``.
+    ``log``: a list to append the data steps to
+    (:class:`~skfem_sheet.figures.work.DataStep`; ``figure all`` reads them).
 
     Returns
     -------
@@ -110,5 +112,5 @@ def fig2(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     >>> fig = fig2("quick", data_dir="skfem_sheet_data")  # doctest: +SKIP
     >>> fig.savefig("fig2.png", dpi=200)  # doctest: +SKIP
     """
-    df = fold_map_table(fig2_points(quality), quality, data_dir, progress, workers)
+    df = fold_map_table(fig2_points(quality), quality, data_dir, progress, workers, log)
     return draw_fig2(df, quality)

@@ -12,6 +12,7 @@ Examples
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -19,9 +20,10 @@ from tqdm.auto import tqdm
 from ..params import Sheet
 from ..plot import draw_surface, top_surface
 from ..solve import solve
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .style import FULL_WIDTH, fmt, footnote, styled_figure
+from .work import note, solves_step
 
 __all__ = ["fig3_sheets", "fig3_data", "draw_fig3", "fig3"]
 
@@ -56,7 +58,9 @@ def _solve_surface(sheet, path, hmax):
     return {"X": np.asarray(X, float), "tri": np.asarray(tri, np.int64),
             "psi": np.asarray(psi, float), "deflection": float(r.deflection),
             "converged": bool(r.converged), "message": str(r.message),
-            "snapped": bool(len(r.snaps)), "hmax": float(hmax)}
+            "snapped": bool(len(r.snaps)), "hmax": float(hmax),
+            "factorizations": int(r.factorizations + r.coarse_factorizations),
+            "wall_time_s": float(r.wall_time_s)}
 
 
 def _fig3_file(folder, sheet, path, hmax):
@@ -64,14 +68,20 @@ def _fig3_file(folder, sheet, path, hmax):
                                 f"h{sheet.thickness:g}_E{sheet.modulus:g}_{path}_hmax{hmax:g}.npz")
 
 
-def fig3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
+def fig3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, log=None):
     """Deformed top surfaces of the Fig. 3 sheets, cached in ``data_dir/fig3-<quality>/``.
+
+    ``log``: a list to append the step's
+    :class:`~skfem_sheet.figures.work.DataStep` to (the solves run now, their
+    factorisations).
 
     Returns
     -------
     list of (panel, title, Sheet, path, dict)
         The dict holds ``X`` (vertices), ``tri``, ``psi`` (psi/mu per triangle),
-        ``deflection``, ``converged``, ``message``, ``snapped``, ``hmax``.
+        ``deflection``, ``converged``, ``message``, ``snapped``, ``hmax``
+        (and, for surfaces cached since they were recorded, the solve's
+        ``factorizations`` and ``wall_time_s``).
 
     Examples
     --------
@@ -82,15 +92,26 @@ def fig3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
     folder = data_folder(data_dir, f"fig3-{quality}")
     out = []
     sheets = fig3_sheets()
-    for panel, title, sheet, path in tqdm(sheets, desc="fig3 solves", disable=not progress):
-        data = cached(_fig3_file(folder, sheet, path, hmax),
-                      lambda sheet=sheet, path=path: _solve_surface(sheet, path, hmax))
+    t0 = time.perf_counter()
+    solved = []
+    for panel, title, sheet, path in tqdm(sheets, desc="fig3 solves", disable=not progress,
+                                          leave=None):
+        data, computed = load_or_compute(
+            _fig3_file(folder, sheet, path, hmax),
+            lambda sheet=sheet, path=path: _solve_surface(sheet, path, hmax))
         for k in ("deflection", "hmax"):
             data[k] = float(data[k])
         for k in ("converged", "snapped"):
             data[k] = bool(data[k])
         data["message"] = str(data["message"])
+        if "factorizations" in data:
+            data["factorizations"] = int(data["factorizations"])
+        if "wall_time_s" in data:
+            data["wall_time_s"] = float(data["wall_time_s"])
+        if computed:
+            solved.append((f"panel {panel}", data))
         out.append((panel, title, sheet, path, data))
+    note(log, solves_step(solved, len(sheets), time.perf_counter() - t0))
     return out
 
 
@@ -180,10 +201,11 @@ def draw_fig3(items, quality: str = "paper"):
     return fig
 
 
-def fig3(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig3(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. 3 (d-i): simulated sheets at a/R = 2.5, L/a = 1.3 coloured by psi/mu.
 
     ``workers`` is accepted for a uniform signature; the six solves run in turn.
+    ``log``: a list to append the data step to (:func:`fig3_data`).
 
     Returns
     -------
@@ -193,4 +215,4 @@ def fig3(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig3("quick").savefig("fig3.png", dpi=200)  # doctest: +SKIP
     """
-    return draw_fig3(fig3_data(quality, data_dir, progress), quality)
+    return draw_fig3(fig3_data(quality, data_dir, progress, log), quality)

@@ -106,8 +106,11 @@ def draw_fig4(df, quality: str = "paper"):
     return fig
 
 
-def fig4(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig4(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. 4: d/a against L/a for b/a in {0, 0.2, ..., 1}, a/R = 0 and 2.5 (fold map).
+
+    ``log``: a list to append the data steps to
+    (:class:`~skfem_sheet.figures.work.DataStep`; ``figure all`` reads them).
 
     Returns
     -------
@@ -117,5 +120,5 @@ def fig4(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig4("quick").savefig("fig4.png", dpi=200)  # doctest: +SKIP
     """
-    df = fold_map_table(fig4_points(quality), quality, data_dir, progress, workers)
+    df = fold_map_table(fig4_points(quality), quality, data_dir, progress, workers, log)
     return draw_fig4(df, quality)

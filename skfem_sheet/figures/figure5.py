@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import time
 
 import numpy as np
 import pandas as pd
@@ -20,7 +21,7 @@ from tqdm.auto import tqdm
 
 from .. import reduced
 from ..params import Sheet
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, arange, quality_settings
 from .data import as_bool, fold_map_table, select_rows
 from .figure2 import fig2_points
@@ -36,6 +37,7 @@ from .style import (
     tally,
     top_legends,
 )
+from .work import DataStep, note
 
 __all__ = ["fig5_points", "fig5_ribbon", "draw_fig5", "fig5"]
 
@@ -55,8 +57,12 @@ def fig5_points(quality: str = "quick") -> list:
     return [p for p in fig2_points(quality) if p["curvature"] in (1.0, 2.5)]
 
 
-def fig5_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
+def fig5_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, log=None):
     """Ribbon-model curves of Fig. 5, both continuation directions (cached CSV).
+
+    ``log``: a list to append the step's :class:`~skfem_sheet.figures.work.DataStep`
+    to (the 8 continuations, computed or cached; the ribbon model is not
+    finite elements: no solves counted).
 
     Returns
     -------
@@ -78,10 +84,12 @@ def fig5_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
         return len(df) == 4 * 2 * lengths.size and have.shape == lengths.shape \
             and np.allclose(have, lengths)
 
+    cases = list(itertools.product((1.0, 0.0), (1.0, 2.5), ("increasing", "decreasing")))
+
     def compute():
         rows = []
-        cases = list(itertools.product((1.0, 0.0), (1.0, 2.5), ("increasing", "decreasing")))
-        for b, k, direction in tqdm(cases, desc="fig5 ribbon model", disable=not progress):
+        for b, k, direction in tqdm(cases, desc="fig5 ribbon model", disable=not progress,
+                                    leave=None):
             br = reduced.ribbon_continuation(Sheet(1.0, tip_width=b, curvature=k), lengths,
                                              direction)
             for L, d, c, j in zip(br.lengths, br.deflection, br.converged, br.jumped):
@@ -90,7 +98,13 @@ def fig5_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
                              "jumped": bool(j)})
         return pd.DataFrame(rows, columns=list(_RIBBON_FIELDS))
 
-    return cached(fn, compute, accept=on_grid)
+    t0 = time.perf_counter()
+    df, computed = load_or_compute(fn, compute, accept=on_grid)
+    t = time.perf_counter() - t0
+    note(log, DataStep("ribbon model", computed=len(cases) if computed else 0,
+                       cached=0 if computed else len(cases), wall_time_s=t,
+                       compute_s=t if computed else 0.0, finite_elements=False))
+    return df
 
 
 def _ribbon_line(ax, sub, colour, linestyle, label):
@@ -190,11 +204,12 @@ def draw_fig5(fe, rom, quality: str = "paper"):
     return fig
 
 
-def fig5(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig5(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. 5: finite elements against the ribbon model (rectangle, triangle; a/R = 1, 2.5).
 
     The finite-element curves are fold-map rows (fig2's); the ribbon curves
-    are cached in ``data_dir/fig5-<quality>-ribbon.csv``.
+    are cached in ``data_dir/fig5-<quality>-ribbon.csv``.  ``log``: a list to
+    append the data steps to (:class:`~skfem_sheet.figures.work.DataStep`).
 
     Returns
     -------
@@ -204,6 +219,6 @@ def fig5(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     --------
     >>> fig5("quick").savefig("fig5.png", dpi=200)  # doctest: +SKIP
     """
-    fe = fold_map_table(fig5_points(quality), quality, data_dir, progress, workers)
-    rom = fig5_ribbon(quality, data_dir, progress)
+    fe = fold_map_table(fig5_points(quality), quality, data_dir, progress, workers, log)
+    rom = fig5_ribbon(quality, data_dir, progress, log)
     return draw_fig5(fe, rom, quality)

@@ -18,13 +18,14 @@ Examples
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
 from ..reduced import maps
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, QUALITIES, arange, quality_settings
 from .data import (
     curve_fold_lines,
@@ -48,6 +49,7 @@ from .style import (
     hmax_of,
     styled_figure,
 )
+from .work import DataStep, note
 
 __all__ = ["fig6_points", "fig6_ribbon", "draw_fig6", "fig6"]
 
@@ -73,12 +75,15 @@ def _fig6_ribbon_grid(quality):
     return lengths, tips
 
 
-def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
+                log=None):
     """Ribbon-model map of Fig. 6 at a/R = 2.5 and 5 (cached ``fig6-<quality>-ribbon.csv``).
 
     Every shape factor of the grid is continued in L in both directions
     (:func:`skfem_sheet.reduced.maps.ribbon_map`); quick: 26 x 26 (L/a, b/a)
-    per curvature, about a minute in all on 2 cores, once.
+    per curvature, about a minute in all on 2 cores, once.  ``log``: a list
+    to append the step's :class:`~skfem_sheet.figures.work.DataStep` to (its
+    units: the shapes, one per b/a and a/R; no finite-element solves).
 
     Returns
     -------
@@ -107,7 +112,7 @@ def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, worke
                  for i in range(0, tips.size, 2 * n)]
         rows = []
         with tqdm(total=2 * tips.size, desc="fig6 ribbon map", unit="shape",
-                  disable=not progress) as bar:
+                  disable=not progress, leave=None) as bar:
             for c, chunk in cases:
                 rows += maps.ribbon_map(c, lengths, chunk, workers=min(n, chunk.size))
                 bar.update(chunk.size)
@@ -116,7 +121,13 @@ def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, worke
             df[col] = df[col].astype(float).round(6)
         return df
 
-    return cached(fn, compute, accept=on_grid)
+    t0 = time.perf_counter()
+    df, computed = load_or_compute(fn, compute, accept=on_grid)
+    t, n = time.perf_counter() - t0, len(_FIG6_CURVATURES) * tips.size
+    note(log, DataStep("ribbon model", computed=n if computed else 0,
+                       cached=0 if computed else n, wall_time_s=t,
+                       compute_s=t if computed else 0.0, finite_elements=False))
+    return df
 
 
 def _fold_polyline(lines):
@@ -303,14 +314,15 @@ def draw_fig6(fe, rom, quality: str = "paper", mode_lengths=None, curves=None):
 
 
 def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
-         method=None):
+         method=None, log=None):
     """Fig. 6: ribbon-model map of d/a over (L/a, b/a) with the FE modes and bistable region.
 
     ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
     ``method="curves"`` (the default there): the fold curves at a/R = 2.5 and 5 (the
     quality's fold-curve table), and fold-map points only at the shape
     factors of the grid at or below each cusp; ``"grid"``: every point of
-    :func:`fig6_points` from the fold map.
+    :func:`fig6_points` from the fold map.  ``log``: a list to append the
+    data steps to (:class:`~skfem_sheet.figures.work.DataStep`).
 
     Returns
     -------
@@ -322,18 +334,18 @@ def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     """
     method = figure_method(method)
     Lm = arange(*quality_settings(quality)["fig6_lengths"])
-    rom = fig6_ribbon(quality, data_dir, progress, workers)
+    rom = fig6_ribbon(quality, data_dir, progress, workers, log)
     if method == "grid":
-        fe = fold_map_table(fig6_points(quality), quality, data_dir, progress, workers)
+        fe = fold_map_table(fig6_points(quality), quality, data_dir, progress, workers, log)
         return draw_fig6(fe, rom, quality, mode_lengths=Lm)
     curves = fold_curve_table(fold_curve_points(quality, _FIG6_CURVATURES, rectangle=False),
-                              quality, data_dir, progress, workers)
+                              quality, data_dir, progress, workers, log)
     cusp = {}
     for c, row in _curve_rows(curves).items():
         lines = curve_fold_lines(row)
         cusp[c] = lines["tip"][0] if lines is not None else np.inf
     pts = map_grid_points(quality, lambda c, b: c in _FIG6_CURVATURES
                           and b <= cusp.get(float(c), np.inf))
-    fe = (fold_map_table(pts, quality, data_dir, progress, workers) if pts
+    fe = (fold_map_table(pts, quality, data_dir, progress, workers, log) if pts
           else pd.DataFrame(columns=list(foldmap.MAP_COLUMNS)))
     return draw_fig6(fe, rom, quality, mode_lengths=Lm, curves=curves)

@@ -257,7 +257,7 @@ def draw_fig7(df, quality: str = "paper", region=None):
 
 
 def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
-         method=None):
+         method=None, log=None):
     """Fig. 7: the bistable region in (L/a, b/a, a/R).
 
     ``method=None``: :data:`skfem_sheet.figures.data.FIGURE_METHOD`.
@@ -265,7 +265,8 @@ def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     (:func:`skfem_sheet.figures.data.fold_curve_points`, cached in
     ``data_dir/foldcurves-<quality>.csv``; the curves not yet traced are
     traced, in parallel and resumably); ``"grid"``: from the fold-map points
-    of :func:`fig7_points`.
+    of :func:`fig7_points`.  ``log``: a list to append the data step to
+    (:class:`~skfem_sheet.figures.work.DataStep`).
 
     Returns
     -------
@@ -277,7 +278,8 @@ def fig7(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
     """
     method = figure_method(method)
     if method == "curves":
-        df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress, workers)
+        df = fold_curve_table(fold_curve_points(quality), quality, data_dir, progress, workers,
+                              log)
         return draw_fig7(df, quality, region=curve_region(df))
-    df = fold_map_table(fig7_points(quality), quality, data_dir, progress, workers)
+    df = fold_map_table(fig7_points(quality), quality, data_dir, progress, workers, log)
     return draw_fig7(df, quality)

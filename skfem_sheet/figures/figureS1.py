@@ -35,6 +35,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import time
 
 import numpy as np
 import pandas as pd
@@ -42,9 +43,10 @@ import pandas as pd
 from ..io import atomic_write
 from ..params import ParameterError, Sheet
 from ..solve import solve
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .style import COLUMN_WIDTH, FULL_WIDTH, fmt, mesh_footnote, panel_label, styled_figure
+from .work import note, solves_step
 
 __all__ = ["FIGS1_SHEET", "DEFAULT_MESH", "figS1_meshes", "figS1_data", "projected_value",
            "seed_from_benchmarks", "draw_figS1", "figS1"]
@@ -54,7 +56,7 @@ FIGS1_SHEET = Sheet(length=1.8, curvature=5.0)
 #: The package's default mesh (and the paper's): hmax 0.03 with 2 layers.
 DEFAULT_MESH = {"hmax": 0.03, "layers": 2, "refine": 0, "role": "default"}
 _COLUMNS = ["hmax", "layers", "refine", "h", "role", "dofs", "deflection", "converged",
-            "wall_time_s"]
+            "wall_time_s", "factorizations"]
 
 
 def figS1_meshes(quality: str = "quick") -> list:
@@ -76,16 +78,33 @@ def _solve_row(m):
               on_failure="return")
     return pd.DataFrame([{**m, "h": m["hmax"] / 2 ** m["refine"], "dofs": r.dofs,
                           "deflection": r.deflection, "converged": bool(r.converged),
-                          "wall_time_s": r.wall_time_s}])[_COLUMNS]
+                          "wall_time_s": r.wall_time_s,
+                          "factorizations": r.factorizations + r.coarse_factorizations}])[_COLUMNS]
 
 
-def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True) -> pd.DataFrame:
-    """One row per mesh of :func:`figS1_meshes` (solved, or read from the cache)."""
+def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
+               log=None) -> pd.DataFrame:
+    """One row per mesh of :func:`figS1_meshes` (solved, or read from the cache).
+
+    ``log``: a list to append the step's
+    :class:`~skfem_sheet.figures.work.DataStep` to (the solves run now, their
+    factorisations; rows cached before the column was recorded, and the
+    seeded ones, have none).
+    """
     from tqdm.auto import tqdm
 
     folder = data_folder(data_dir, f"figS1-{quality}")
-    rows = [cached(_file(folder, m), lambda m=m: _solve_row(m))
-            for m in tqdm(figS1_meshes(quality), desc="figS1 solves", disable=not progress)]
+    meshes = figS1_meshes(quality)
+    t0 = time.perf_counter()
+    rows, solved = [], []
+    for m in tqdm(meshes, desc="figS1 solves", disable=not progress, leave=None):
+        row, computed = load_or_compute(_file(folder, m), lambda m=m: _solve_row(m))
+        rows.append(row)
+        if computed:
+            solved.append((f"hmax {m['hmax']:g} refine {m['refine']}",
+                           {k: row[k].iloc[0] for k in ("factorizations", "wall_time_s")
+                            if k in row and pd.notna(row[k].iloc[0])}))
+    note(log, solves_step(solved, len(meshes), time.perf_counter() - t0))
     return pd.concat(rows, ignore_index=True)
 
 
@@ -124,7 +143,9 @@ def seed_from_benchmarks(data_dir, results_dir, quality: str = "paper") -> int:
                 continue
             row = pd.DataFrame([{**m, "h": m["hmax"] / 2 ** m["refine"], "dofs": run["dofs"],
                                  "deflection": run["deflection"], "converged": True,
-                                 "wall_time_s": run.get("wall_time_s", np.nan)}])[_COLUMNS]
+                                 "wall_time_s": run.get("wall_time_s", np.nan),
+                                 "factorizations": run.get("factorizations", np.nan)}]
+                               )[_COLUMNS]
             atomic_write(_file(folder, m), row.to_csv(index=False))
             written += 1
     return written
@@ -236,11 +257,14 @@ def draw_figS1(df, quality: str = "paper", manufactured=None):
     return fig
 
 
-def figS1(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def figS1(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. S1: the convergence test (d/a against hmax; MMS rates beside it if recorded).
+
+    ``log``: a list to append the data step to (:func:`figS1_data`).
 
     Examples
     --------
     >>> figS1("quick").savefig("figS1.png", dpi=200)  # doctest: +SKIP
     """
-    return draw_figS1(figS1_data(quality, data_dir, progress), quality, _manufactured(data_dir))
+    return draw_figS1(figS1_data(quality, data_dir, progress, log), quality,
+                      _manufactured(data_dir))

@@ -22,15 +22,17 @@ Examples
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 
 from ..analyses.midsurface import clamp_layer_width, midsurface
 from ..params import Sheet
 from ..solve import solve
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .style import FULL_WIDTH, fmt, mesh_footnote, styled_figure
+from .work import note, solves_step
 
 __all__ = ["figS3_sheet", "figS3_data", "draw_figS3", "figS3", "FIELDS_S3",
            "supplement_solve"]
@@ -56,17 +58,24 @@ def _grid_data(sheet, hmax, n_s, n_t):
     return {"s": m.s, "t": m.t, "E_ss": m.E_ss, "E_st": m.E_st, "E_tt": m.E_tt,
             "T_ss": m.T_ss, "T_tt": m.T_tt, "u": m.u, "v": m.v, "w": m.w,
             "hmax": float(hmax), "dofs": int(r.dofs), "layers": int(r.layers),
-            "converged": bool(r.converged), "deflection": float(r.deflection)}
+            "converged": bool(r.converged), "deflection": float(r.deflection),
+            "factorizations": int(r.factorizations + r.coarse_factorizations),
+            "wall_time_s": float(r.wall_time_s)}
 
 
-def figS3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
+def figS3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, log=None):
     """The mid-surface grid of the Fig. S3 sheet (a dict of arrays), cached.
+
+    ``log``: a list to append the step's
+    :class:`~skfem_sheet.figures.work.DataStep` to (one solve, or none).
 
     Returns
     -------
     dict
         ``s`` (n_s,), ``t`` (n_s, n_t), the fields of :data:`FIELDS_S3` and
-        ``u, v, w`` (n_s, n_t), ``hmax``, ``dofs``, ``layers``, ``converged``.
+        ``u, v, w`` (n_s, n_t), ``hmax``, ``dofs``, ``layers``, ``converged``
+        (and, cached since they were recorded, the solve's ``factorizations``
+        and ``wall_time_s``).
     """
     s = quality_settings(quality)
     hmax, (n_s, n_t) = s["hmax_supplement"], s["supplement_grid"]
@@ -74,7 +83,11 @@ def figS3_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
     folder = data_folder(data_dir, f"figS3-{quality}")
     fn = os.path.join(folder, f"L{sheet.length:g}_k{sheet.curvature:g}_h{sheet.thickness:g}_"
                               f"g0_hmax{hmax:g}_{n_s}x{n_t}.npz")
-    return cached(fn, lambda: _grid_data(sheet, hmax, n_s, n_t))
+    t0 = time.perf_counter()
+    data, computed = load_or_compute(fn, lambda: _grid_data(sheet, hmax, n_s, n_t))
+    note(log, solves_step([("the rectangle", data)] if computed else [], 1,
+                          time.perf_counter() - t0))
+    return data
 
 
 def draw_figS3(data, quality: str = "paper", sheet=None):
@@ -138,13 +151,13 @@ def draw_figS3(data, quality: str = "paper", sheet=None):
     return fig
 
 
-def figS3(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def figS3(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. S3: strains and stresses of the gravity-free rectangle (one FE solve).
 
-    ``workers`` is accepted for a uniform signature.
+    ``workers`` is accepted for a uniform signature; ``log`` as in :func:`figS3_data`.
 
     Examples
     --------
     >>> figS3("quick").savefig("figS3.png", dpi=200)  # doctest: +SKIP
     """
-    return draw_figS3(figS3_data(quality, data_dir, progress), quality)
+    return draw_figS3(figS3_data(quality, data_dir, progress, log), quality)

@@ -18,15 +18,17 @@ Examples
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 
 from ..analyses.midsurface import midsurface, quadratic_fit
 from ..params import Sheet
-from .cache import cached, data_folder
+from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .figureS3 import supplement_solve
 from .style import FULL_WIDTH, fmt, mesh_footnote, panel_label, styled_figure
+from .work import note, solves_step
 
 __all__ = ["FIGS4_SECTIONS", "figS4_sheet", "figS4_data", "draw_figS4", "figS4"]
 
@@ -45,18 +47,28 @@ def _sections_data(sheet, hmax, n_t):
     m = midsurface(r.problem, r.w, list(FIGS4_SECTIONS), n_across=n_t)
     return {"s": m.s, "t": m.t, "u": m.u, "v": m.v, "w": m.w, "angle": m.frame.angle,
             "hmax": float(hmax), "dofs": int(r.dofs), "layers": int(r.layers),
-            "converged": bool(r.converged)}
+            "converged": bool(r.converged),
+            "factorizations": int(r.factorizations + r.coarse_factorizations),
+            "wall_time_s": float(r.wall_time_s)}
 
 
-def figS4_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True):
-    """u, v, w at the Fig. S4 sections (a dict of arrays ``[section, point]``), cached."""
+def figS4_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, log=None):
+    """u, v, w at the Fig. S4 sections (a dict of arrays ``[section, point]``), cached.
+
+    ``log``: a list to append the step's
+    :class:`~skfem_sheet.figures.work.DataStep` to (one solve, or none).
+    """
     s = quality_settings(quality)
     hmax, n_t = s["hmax_supplement"], s["supplement_grid"][1]
     sheet = figS4_sheet()
     folder = data_folder(data_dir, f"figS4-{quality}")
     fn = os.path.join(folder, f"L{sheet.length:g}_k{sheet.curvature:g}_h{sheet.thickness:g}_"
                               f"g0_hmax{hmax:g}_{n_t}.npz")
-    return cached(fn, lambda: _sections_data(sheet, hmax, n_t))
+    t0 = time.perf_counter()
+    data, computed = load_or_compute(fn, lambda: _sections_data(sheet, hmax, n_t))
+    note(log, solves_step([("the rectangle", data)] if computed else [], 1,
+                          time.perf_counter() - t0))
+    return data
 
 
 def draw_figS4(data, quality: str = "paper", sheet=None):
@@ -108,11 +120,13 @@ def draw_figS4(data, quality: str = "paper", sheet=None):
     return fig
 
 
-def figS4(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None):
+def figS4(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. S4: scaled u, v, w of the gravity-free rectangle at s/a = 0.4, 0.8, 1.2.
+
+    ``workers`` is accepted for a uniform signature; ``log`` as in :func:`figS4_data`.
 
     Examples
     --------
     >>> figS4("quick").savefig("figS4.png", dpi=200)  # doctest: +SKIP
     """
-    return draw_figS4(figS4_data(quality, data_dir, progress), quality)
+    return draw_figS4(figS4_data(quality, data_dir, progress, log), quality)

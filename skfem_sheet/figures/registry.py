@@ -23,14 +23,15 @@ from .style import DPI
 
 __all__ = ["FIGURES", "make_figure"]
 
-#: Figure name -> function ``(quality, data_dir, progress, workers) -> Figure``.
-#: The command line (``skfem_sheet.cli``) offers exactly these names.
+#: Figure name -> function ``(quality, data_dir, progress, workers, log) -> Figure``
+#: (``log``: a list for the data steps, :mod:`skfem_sheet.figures.work`).
+#: The command line (``skfem_sheet.cli``) offers exactly these names (and ``all``).
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
            "fig7": fig7, "figS1": figS1, "figS3": figS3, "figS4": figS4}
 
 
 def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DATA_DIR,
-                progress: bool = True, workers=None):
+                progress: bool = True, workers=None, log=None):
     """Compute (or read from the cache) and draw one figure; write it to ``out``.
 
     Parameters
@@ -46,6 +47,9 @@ def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DA
         Progress bars on stderr.
     workers : int, optional
         Processes for the fold map (default: the fold map's own choice).
+    log : list, optional
+        Receives one :class:`~skfem_sheet.figures.work.DataStep` per table
+        the figure read or computed.
 
     Returns
     -------
@@ -67,7 +71,8 @@ def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DA
 
     if out is not None:
         matplotlib.use("Agg", force=False)
-    fig = FIGURES[name](quality=quality, data_dir=data_dir, progress=progress, workers=workers)
+    fig = FIGURES[name](quality=quality, data_dir=data_dir, progress=progress, workers=workers,
+                        log=log)
     if out is not None:
         fig.savefig(out, dpi=DPI, bbox_inches="tight", pad_inches=0.02)
     return fig

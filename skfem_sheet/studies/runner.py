@@ -476,7 +476,9 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
     done : dict
         Every key of the journal (and of this run) -> its record.
     stats : dict
-        ``new``, ``cached``, ``points`` (distinct), ``table``, ``journal``.
+        ``new``, ``cached``, ``points`` (distinct), ``table``, ``journal``, and
+        ``new_keys``: the keys of the ``new`` records (computed in this run,
+        failed ones included), in the order they finished.
 
     Raises
     ------
@@ -499,14 +501,15 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
     if scheduler is not None:
         client, own_client = dask_client(scheduler)
 
+    # leave=None: kept on screen unless nested under another bar (``figure all``'s)
     bar = tqdm(total=len(order), initial=n_cached, desc=job.desc, unit="pt", file=sys.stderr,
-               disable=not progress, dynamic_ncols=True)
+               disable=not progress, dynamic_ncols=True, leave=None)
     failed = sum(1 for k in order if k in done and k not in todo_keys
                  and not done[k].get("converged"))
     bar.set_postfix(failed=failed, refresh=False)
     journal = Journal(jpath) if jpath else None
     last_table = time.monotonic()
-    new = 0
+    new_keys = []
     interrupted = False
     try:
         if todo:
@@ -524,7 +527,7 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
                         if journal is not None:
                             journal.append(rec)
                         done[rec["key"]] = rec
-                        new += 1
+                        new_keys.append(rec["key"])
                         failed += not rec["converged"]
                         bar.set_postfix(failed=failed, refresh=False)
                         bar.update(1)
@@ -557,8 +560,8 @@ def execute(points, keys, job, *, table, workers, scheduler, progress, retry_fai
             new=sum(1 for k in todo_keys if k in kept
                     and (k not in before or kept[k].get("finished_at") != before[k])),
             table=table, records=kept) from None
-    return done, {"new": new, "cached": n_cached, "points": len(order), "table": table,
-                  "journal": jpath}
+    return done, {"new": len(new_keys), "cached": n_cached, "points": len(order),
+                  "table": table, "journal": jpath, "new_keys": tuple(new_keys)}
 
 
 def study_points(points, normalize, maker) -> list:

@@ -1,0 +1,156 @@
+"""Every figure in one run (``python -m skfem_sheet figure all``): :func:`make_all`.
+
+The figures are drawn one after the other into ``out_dir/<name>.png`` from
+one data folder, so they share what the caches already share: the fold-map
+table (fig2, fig4, fig5 and fig6 ask it for their points; fig5's are fig2's,
+fig4's b/a = 0 and 1 rows are fig2's, fig6's rows below the cusps partly
+fig2's and fig4's) and the fold-curve table (fig6's two curves, a/R = 2.5 and
+5, are two of fig7's 18).  fig7 is drawn before fig6 (:func:`run_order`), so
+that all 18 curves are traced in one batch over the workers, longest first,
+instead of fig6's two first and the other 16 after them.  fig3, figS1, figS3
+and figS4 keep their own solves; the ribbon curves of fig5 and the ribbon map
+of fig6 are on different length grids and are not shared.
+
+One progress bar (stderr) counts the figures; the bar of the step under way
+(the fold map, the fold curves, a figure's solves) shows below it while it
+runs.  At the end, :func:`make_all` writes the summary
+(:func:`skfem_sheet.figures.work.summary_text` and ``summary_json``) into
+``out_dir/summary.txt`` and ``out_dir/summary.json``: per figure its wall
+time, solves, factorisations, units computed and cached, and what dominated.
+A figure that fails is recorded there (its error) and the others are drawn;
+Ctrl-C writes the summary of the figures finished and stops.
+
+Examples
+--------
+>>> run_order(["fig2", "fig6", "fig7", "figS1"])
+['fig2', 'fig7', 'fig6', 'figS1']
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+from tqdm.auto import tqdm
+
+from .. import version
+from ..io import atomic_write, dumps_json
+from ..params import ParameterError
+from .cache import data_folder
+from .common import DEFAULT_DATA_DIR, quality_settings
+from .registry import FIGURES, make_figure
+from .work import FigureRun, summary_json, summary_text
+
+__all__ = ["make_all", "run_order", "SUMMARY_FILES"]
+
+#: The summary's files in the output folder: the text table and the JSON.
+SUMMARY_FILES = ("summary.txt", "summary.json")
+
+
+def run_order(names) -> list:
+    """The order in which :func:`make_all` draws ``names``: as given, with fig7
+    moved just before fig6 (its fold curves include fig6's; see the module)."""
+    names = list(names)
+    if "fig6" in names and "fig7" in names:
+        names.remove("fig7")
+        names.insert(names.index("fig6"), "fig7")
+    return names
+
+
+def _out_folder(out_dir) -> str:
+    out_dir = os.fspath(out_dir)
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as err:
+        raise ParameterError(f"out_dir must be a writable folder, got {out_dir!r} ({err})") \
+            from None
+    if not os.access(out_dir, os.W_OK):
+        raise ParameterError(f"out_dir must be a writable folder, got {out_dir!r}")
+    return out_dir
+
+
+def _draw(name, quality, out, data_dir, progress, workers) -> FigureRun:
+    """One figure into ``out``; an exception (not Ctrl-C) becomes the run's error."""
+    import matplotlib.pyplot as plt  # deferred: make_figure chose the file backend
+
+    log = []
+    t0 = time.perf_counter()
+    try:
+        fig = make_figure(name, quality, out, data_dir, progress, workers, log=log)
+        plt.close(fig)
+    except Exception as err:  # recorded in the summary; the other figures go on
+        return FigureRun(name, "", time.perf_counter() - t0, tuple(log),
+                         f"{type(err).__name__}: {err}")
+    return FigureRun(name, out, time.perf_counter() - t0, tuple(log))
+
+
+def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
+             progress: bool = True, workers=None, names=None) -> tuple:
+    """Draw every figure (or ``names``) into ``out_dir``, with the summary beside them.
+
+    Parameters
+    ----------
+    quality : {"quick", "paper"}
+    out_dir : str
+        Folder of the PNGs (``<name>.png``) and the summary
+        (:data:`SUMMARY_FILES`); created if needed.
+    data_dir : str
+        Folder of the cached tables, shared by the figures (created if needed).
+    progress : bool
+        One progress bar on stderr (and the bar of the step under way).
+    workers : int, optional
+        Processes for the fold map and the fold curves (default: one per CPU).
+    names : list of str, optional
+        Keys of :data:`~skfem_sheet.figures.FIGURES` (default: all), drawn in
+        :func:`run_order`.
+
+    Returns
+    -------
+    tuple of FigureRun
+        One per figure, in the order drawn (a failed one has its ``error``).
+
+    Raises
+    ------
+    ParameterError
+        For a bad quality, figure name or folder, before anything is computed.
+
+    Examples
+    --------
+    >>> runs = make_all("quick", "figures", "skfem_sheet_data")  # doctest: +SKIP
+    >>> [r.name for r in runs][:3]  # doctest: +SKIP
+    ['fig2', 'fig3', 'fig4']
+    """
+    quality_settings(quality)
+    names = list(FIGURES) if names is None else list(names)
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown or not names:
+        raise ParameterError(f"names must be some of {', '.join(FIGURES)}, got {names!r}")
+    out_dir = _out_folder(out_dir)
+    data_folder(data_dir)
+    import matplotlib  # deferred: import cost; the file backend before pyplot loads
+
+    matplotlib.use("Agg", force=False)
+    about = {"quality": quality, "data_dir": os.fspath(data_dir), "out_dir": out_dir,
+             "workers": workers, "version": version.__version__,
+             "started_at": time.strftime("%Y-%m-%d %H:%M:%S %z")}
+    title = (f"figure all, {quality} quality: data in {os.fspath(data_dir)}, figures in "
+             f"{out_dir} (workers: {workers or 'one per CPU'})")
+    runs = []
+    bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,
+               disable=not progress, dynamic_ncols=True)
+    try:
+        for name in run_order(names):
+            bar.set_postfix_str(name)
+            runs.append(_draw(name, quality, os.path.join(out_dir, f"{name}.png"), data_dir,
+                              progress, workers))
+            bar.update(1)
+    finally:
+        bar.close()
+        _write_summary(runs, out_dir, title, about)
+    return tuple(runs)
+
+
+def _write_summary(runs, out_dir, title, about) -> None:
+    text, data = SUMMARY_FILES
+    atomic_write(os.path.join(out_dir, text), summary_text(runs, title) + "\n")
+    atomic_write(os.path.join(out_dir, data), dumps_json(summary_json(runs, **about)) + "\n")
