@@ -621,7 +621,7 @@ def _check_identifiable(J, free, where, reference):
 def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvature-first",
               hmax: float = 0.1, *, gravity: float = 1.0, solver: str = "auto",
               max_evaluations: int = 20, xtol: float = 1e-5, layers=None,
-              start="coarse") -> Calibration:
+              start="coarse", progress: bool = False) -> Calibration:
     """Fit free parameters of ``sheet`` to measured tip deflections.
 
     Least squares on the residuals ``(d_model_i - d_i) / sigma_i``
@@ -657,6 +657,10 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
         Relative change of the parameters at which the fit stops (1e-5: far
         below the standard error of any measured deflection; smaller costs an
         evaluation more with noisy data, measured).
+    progress : bool
+        A tqdm bar on stderr: the solves made, with the parameters being tried
+        (each model evaluation is one solve per measurement; the bar has no
+        total, the fit stops when it converges).
 
     Returns
     -------
@@ -712,25 +716,37 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
     hi = np.array([_BOUNDS[f][1] for f in free]) / scale
     model = _Model(sheet, ms, free, path, hmax, gravity,
                    dict(solver=solver, layers=layers, start=start))
+    from tqdm.auto import tqdm
+
+    bar = tqdm(desc="calibrate", unit="solve", disable=not progress, leave=None)
+
+    def evaluated(x):
+        out = model(x)
+        bar.update(model.solves - bar.n)
+        bar.set_postfix_str(model._at(x), refresh=False)
+        return out
 
     def residuals(x):
-        d, _, _ = model(x * scale)
+        d, _, _ = evaluated(x * scale)
         return (d - measured) / sigma
 
     def jacobian(x):
-        _, J, _ = model(x * scale)
+        _, J, _ = evaluated(x * scale)
         return J * scale[None, :] / sigma[:, None]
 
-    J0 = jacobian(x0 / scale)
-    _check_identifiable(J0, free, f"at the start ({model._at(x0)})",
-                        np.linalg.norm(model(x0)[0] / sigma))
-    # the start on the boundary of a range (a flat clamp) is moved inside it
-    xs = np.clip(x0 / scale, lo + 1e-12 * (hi - lo), hi - 1e-12 * (hi - lo))
-    res = least_squares(residuals, xs, jac=jacobian, bounds=(lo, hi), method="trf",
-                        x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12,
-                        max_nfev=max_evaluations)
-    x = res.x * scale
-    d, J, branches = model(x)
+    try:
+        J0 = jacobian(x0 / scale)
+        _check_identifiable(J0, free, f"at the start ({model._at(x0)})",
+                            np.linalg.norm(model(x0)[0] / sigma))
+        # the start on the boundary of a range (a flat clamp) is moved inside it
+        xs = np.clip(x0 / scale, lo + 1e-12 * (hi - lo), hi - 1e-12 * (hi - lo))
+        res = least_squares(residuals, xs, jac=jacobian, bounds=(lo, hi), method="trf",
+                            x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12,
+                            max_nfev=max_evaluations)
+        x = res.x * scale
+        d, J, branches = evaluated(x)
+    finally:
+        bar.close()
     Jw = J / sigma[:, None]
     _check_identifiable(Jw * scale[None, :], free, f"at the fit ({model._at(x)})",
                         np.linalg.norm(d / sigma))

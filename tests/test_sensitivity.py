@@ -241,8 +241,11 @@ def synthetic():
             for L in (0.5, 0.65, 0.8)]
 
 
-def test_calibration_recovers_the_modulus_of_exact_data(synthetic):
-    fit = calibrate(CAL, synthetic, hmax=CAL_HMAX)
+def test_calibration_recovers_the_modulus_of_exact_data(synthetic, capsys):
+    fit = calibrate(CAL, synthetic, hmax=CAL_HMAX, progress=True)
+    # the bar on stderr counted every solve of the fit
+    bar = capsys.readouterr().err
+    assert "calibrate" in bar and f"{fit.solves}solve" in bar.replace(" ", "")
     assert fit.converged and fit["modulus"] == pytest.approx(820.0, rel=1e-6)
     assert fit.noise == "residuals" and fit.standard_error("modulus") < 1e-3
     assert fit.solves == 3 * fit.evaluations and fit.evaluations <= 6

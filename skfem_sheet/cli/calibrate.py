@@ -58,6 +58,7 @@ def register(subparsers) -> None:
     p.add_argument("--max-evaluations", type=int, default=20,
                    help="most model evaluations (each one solve per measurement; default 20)")
     p.add_argument("--json", default=None, help="write the fit here")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
 
@@ -96,7 +97,7 @@ def run(args) -> int:
                   thickness=args.thickness, modulus=args.modulus)
     fit = calibrate(sheet, ms, free=args.free, path=args.path, hmax=args.hmax,
                     gravity=args.gravity, solver=args.solver,
-                    max_evaluations=args.max_evaluations)
+                    max_evaluations=args.max_evaluations, progress=not args.quiet)
     for name, v, se in zip(fit.parameters, fit.values, fit.standard_errors):
         err = "" if math.isnan(se) else f" +- {se:.4g} (standard error, noise from {fit.noise})"
         print(f"{name} = {v:.6g}{err}")
