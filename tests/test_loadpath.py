@@ -83,6 +83,31 @@ def test_the_step_rule_grows_and_cuts_by_the_corrector_distance():
         StepRule(initial=0.1, minimum=0.2)
 
 
+#: u = 50 lam^2: the tangent at lam = 0 is flat, so a step of length h
+#: predicts u = 0 and is 50 h^2 off the branch; R is linear in u, so Newton's
+#: first correction is that distance exactly
+PARABOLA = FunctionProblem(lambda u, p: u - 50 * p[0] ** 2,
+                           lambda u, p: np.eye(1), ("lam",))
+
+
+def test_a_step_whose_first_correction_is_beyond_the_bound_costs_one_linearisation(caplog):
+    """Newton's first correction estimates the corrector distance: a step
+    whose first correction is over the rule's bound is stopped there and
+    rejected (one linearisation), not corrected to the end to be rejected
+    after (two here; all of Newton's iterations where Newton fails)."""
+    rule = StepRule(initial=0.5, delta=0.01, maximum=1.0)
+    with caplog.at_level("DEBUG", logger="skfem_sheet.engine.loadpath"):
+        b = ramp(PARABOLA, np.zeros(1), np.zeros(1), "lam", 1.0, rule=rule)
+    assert b.completed and float(b.points[-1].u[0]) == pytest.approx(50.0, abs=1e-8)
+    steps = [r.getMessage() for r in caplog.records if r.getMessage().startswith("step")]
+    stopped = [m for m in steps if "first correction too large" in m]
+    # the first steps (50 h^2 = 12.5, 3.1, 0.78, 0.20, 0.049 > bound 0.04)
+    # are each stopped after one linearisation; then the branch is followed
+    assert len(stopped) >= 5 and b.rejected >= 5
+    assert all(", 1 iterations first correction too large" in m for m in stopped)
+    assert all(pt.distance <= rule.bound for pt in b.points)
+
+
 def test_the_sheet_newton_and_load_path_run_on_the_engine(monkeypatch):
     """Every Newton iteration of a load path is one of engine.corrector.correct,
     and a settle goes through the engine's transient iteration."""

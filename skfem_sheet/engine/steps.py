@@ -18,7 +18,13 @@ between half and twice ``h``.  (Allgower & Georg also weigh Newton's
 contraction; on a thin sheet a bending step leaves a membrane residual that
 the next correction removes, so the second correction is often as large as
 the first on a perfectly smooth branch, and the contraction says nothing
-about the step.)  No other rule accepts or rejects a step's size: the drivers
+about the step.)  The corrector's first Newton correction is the
+first-order estimate of that distance (the estimate Allgower & Georg's
+step control is built on): a correction whose first step is already beyond
+the rejection bound (:attr:`StepRule.bound`) is stopped there and the step
+rejected, instead of being corrected to the end only to be rejected (or to
+fail after all of Newton's iterations, as a step too long for Newton's basin
+does).  No other rule accepts or rejects a step's size: the drivers
 add only what the mathematics says about the point itself (the corrector
 converged; the inertia changes only where the parameter turns).
 
@@ -29,6 +35,8 @@ Examples
 0.2
 >>> rule.rejects(0.09)  # nine times nominal: rejected (the step is halved)
 True
+>>> rule.bound  # also the bound on the corrector's first Newton correction
+0.04
 """
 from __future__ import annotations
 
@@ -72,10 +80,17 @@ class StepRule:
         check_range("maximum", self.maximum, self.initial, None)
         check_range("delta", self.delta, 0, None, lo_open=True)
 
+    @property
+    def bound(self) -> float:
+        """The largest corrector distance accepted: four times the nominal one.
+        Also the bound on the corrector's first Newton correction (its
+        estimate of the distance; see the module)."""
+        return 4.0 * self.delta
+
     def rejects(self, distance: float) -> bool:
         """Whether a step whose corrector distance is ``distance`` is rejected:
-        more than four times the nominal one (or not finite)."""
-        return not float(distance) <= 4.0 * self.delta
+        more than :attr:`bound` (or not finite)."""
+        return not float(distance) <= self.bound
 
     def next_step(self, h: float, distance: float, order: int = 2) -> float:
         """The step after an accepted one of length ``h``: ``h (delta /
