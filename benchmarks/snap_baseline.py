@@ -44,8 +44,14 @@ CASES = [
 ]
 
 CHILD = """
-import json, sys, time
+import json, os, sys, time
+import skfem_sheet
 from skfem_sheet import Sheet, solve
+# the checkout asked for, not an installed copy (the child runs in it, and the
+# working directory comes first on sys.path, before an editable install's finder)
+here = os.path.realpath(skfem_sheet.__file__)
+if not here.startswith(os.path.join(os.path.realpath(sys.argv[2]), "")):
+    sys.exit(f"skfem_sheet imported from {here}, not from the checkout {sys.argv[2]}")
 from skfem_sheet.continuation import StepOptions
 from skfem_sheet.newton import NewtonOptions
 spec = json.loads(sys.argv[1])
@@ -75,7 +81,7 @@ def run(out, root=ROOT, options=None):
         for name, sheet, path, hmax, kw in CASES:
             spec = json.dumps(dict(sheet=sheet, path=path, hmax=hmax, kw=kw,
                                    options=options or {}))
-            p = subprocess.run([sys.executable, "-c", CHILD, spec], cwd=root, env=env,
+            p = subprocess.run([sys.executable, "-c", CHILD, spec, root], cwd=root, env=env,
                                capture_output=True, text=True)
             if p.returncode:
                 rec = dict(error=p.stderr[-500:])
