@@ -48,7 +48,7 @@ import json, os, sys, time
 import skfem_sheet
 from skfem_sheet import Sheet, solve
 # the checkout asked for, not an installed copy (the child runs in it, and the
-# working directory comes first on sys.path, before an editable install's finder)
+# working directory comes first on the import path, before an editable install's finder)
 here = os.path.realpath(skfem_sheet.__file__)
 if not here.startswith(os.path.join(os.path.realpath(sys.argv[2]), "")):
     sys.exit(f"skfem_sheet imported from {here}, not from the checkout {sys.argv[2]}")
