@@ -20,7 +20,8 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   :class:`~skfem_sheet.engine.steps.StepRule`): the corrector converged
   (:class:`~skfem_sheet.engine.corrector.ChordTest`, at least two
   linearisations), its distance from the prediction is at most four times
-  the nominal one, and above the nominal one the *halving test*: the step of
+  the nominal one (a correction whose first Newton step is already longer
+  than that is stopped there: Newton's first step estimates the distance), and above the nominal one the *halving test*: the step of
   half the length from the same point must land at most half as far (a
   smooth branch: a quarter; a jump onto another branch: no nearer).  The
   next step is chosen to land at the nominal distance (at most twice as
@@ -256,6 +257,9 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         raise ParameterError(f"stop must be finite, got {stop!r}")
     max_points = int(check_range("max_points", max_points, 1, None))
     end_tol = tol if end_tol is None else end_tol
+    # the corrections of the steps: stopped after a first Newton correction
+    # beyond the rule's bound on the distance (the step is rejected)
+    step_tol = replace(tol, max_correction=min(tol.max_correction, rule.bound))
     direction = 1.0 if stop >= p[i] else -1.0
     points, rejected = [], 0
 
@@ -288,17 +292,17 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         if natural:
             value = p[i] + direction * min(h * slope, remaining)
             u_pred, p_pred = _predict(points, i, "p", value, t)
-            res = _natural(counter, u, u_pred, p_pred, tol)
+            res = _natural(counter, u, u_pred, p_pred, step_tol)
         else:
             u_pred, p_pred = _predict(points, i, "s", points[-1].s + h, t)
-            res = _arclength(counter, u, p, u_pred, p_pred, i, tol)
+            res = _arclength(counter, u, p, u_pred, p_pred, i, step_tol)
             if res.converged and (stop - res.p[i]) * direction < 0:
                 # the branch passes the end within the step: land on the end
                 # from the interpolation between the two points
                 a = (stop - p[i]) / (res.p[i] - p[i])
                 u_pred, p_pred = u + a * (res.u - u), res.p.copy()
                 p_pred[i] = stop
-                res = _natural(counter, u, u_pred, p_pred, tol)
+                res = _natural(counter, u, u_pred, p_pred, step_tol)
         dist = corrector_distance(counter, res, u_pred, p_pred) if res.converged else None
         log.debug("step h=%.4g (%s, slope %.3g): p %.6g -> %.6g, converged %s, distance %s, "
                   "%d iterations %s", h, "natural" if natural else "arclength", slope, p[i],
