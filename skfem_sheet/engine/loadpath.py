@@ -21,12 +21,13 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   (:class:`~skfem_sheet.engine.corrector.ChordTest`, at least two
   linearisations), its distance from the prediction is at most four times
   the nominal one (a correction whose first Newton step is already longer
-  than that is stopped there: Newton's first step estimates the distance), and above the nominal one the *halving test*: the step of
-  half the length from the same point must land at most half as far (a
-  smooth branch: a quarter; a jump onto another branch: no nearer).  The
-  next step is chosen to land at the nominal distance (at most twice as
-  long, and not longer after a rejection or a correction that used more
-  than half of Newton's budget).
+  than that is stopped there: Newton's first step estimates the distance),
+  and above the nominal one the *halving test*: the step of half the length
+  from the same point must land at most half as far (a smooth branch: a
+  quarter; a jump onto another branch: no nearer).  The next step is
+  chosen to land at the nominal distance (at most twice as long, and not
+  longer after a rejection or a correction that used more than half of
+  Newton's budget).
 - **turning points**: the parameter stops being monotone over three points
   (the secant's parameter component changes sign), confirmed by the inertia
   of the Hessian past the turn (one more negative eigenvalue; where the
