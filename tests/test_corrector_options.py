@@ -110,7 +110,54 @@ def test_pseudo_transient_refuses_an_indefinite_model():
     sys = Never()
     res = pseudo_transient(sys, np.array([0.5]), utol=1e-8, shift=1.0)
     assert not res.converged and "positive definite" in res.reason and res.iterations == 0
-    assert sys.factorizations >= 10
+    # the shift grew by x4, x16, x64 and then to the cap (1e6 times the
+    # initial shift), where it was tried too: five factorisations to give up
+    assert sys.factorizations == 5
+
+
+class _Ridge(_Well):
+    """E = c (u^4/4 - u^2/2): a saddle whose tangent stays near -c over many
+    steps of the radius, so that every shift below c leaves a negative
+    direction there."""
+
+    def __init__(self, c):
+        super().__init__()
+        self.c, self.shifts = c, []
+
+    def residual(self, u):
+        return self.c * super().residual(u)
+
+    def tangent(self, u):
+        return self.c * super().tangent(u)
+
+    def factorize(self, K, u, sigma):
+        k = super().factorize(K, u, sigma)
+        self.shifts.append((float(u[0]), sigma, k))
+        return k
+
+
+def test_pseudo_transient_does_not_retry_a_shift_found_too_small():
+    """A shift that left a negative direction is not tried again at the next
+    state (the tangent changed little): on a deep ridge the first shift tried
+    at each state is above every shift found too small at the state before
+    (without the memory the step rule divided the shift back into that range,
+    and each such state refactorised again: 39 factorisations, here 37), and
+    the settle still ends on the minimum with plain Newton."""
+    sys = _Ridge(100.0)
+    res = pseudo_transient(sys, np.array([0.01]), utol=1e-12, shift=1.0, radius=0.05,
+                           max_decrease=64.0)
+    assert res.converged and res.u[0] == pytest.approx(1.0, abs=1e-10)
+    states = {}
+    for u, sigma, k in sys.shifts:
+        states.setdefault(u, []).append((sigma, k))
+    tries = list(states.values())
+    assert len(tries[0]) > 2  # the first state escalated from 1 to past 100
+    for before, after in zip(tries, tries[1:]):
+        too_small = [sigma for sigma, k in before if k > 0]
+        if too_small:
+            assert after[0][0] > max(too_small)
+    assert tries[-1][-1] == (0.0, 0)  # plain Newton at the end
+    assert sys.factorizations <= 37
 
 
 def test_pseudo_transient_shift_falls_faster_while_the_steps_are_short():

@@ -26,7 +26,21 @@ import numpy as np
 from ..params import check_range
 from .protocol import EngineFailure
 
-__all__ = ["TransientResult", "TransientSystem", "pseudo_transient"]
+__all__ = ["SHIFT_MEMORY_FADE", "TransientResult", "TransientSystem", "pseudo_transient"]
+
+#: Per step, the remembered shift that left a negative direction (see
+#: :func:`pseudo_transient`) is divided by this: the memory must outlast the
+#: step or two in which the step-length rule would bring the shift below it
+#: again, and be gone once the state is past the saddle (the shift can then
+#: fall by ``max_decrease``, 64, per step).  Measured on the three snaps of
+#: the regression set and the snap sample that settle longest (issue 17's
+#: sheet, hmax 0.08; L 1.465 b 0.699 a/R 4.212 and L 1.203 b 0.514 a/R 2.442,
+#: hmax 0.1): 29, 24 and 14 factorisations in 19, 17 and 11 steps, where
+#: neither the memory nor the growing refactorisation factor took 45, 42
+#: and 25 in 22, 25 and 16; with a fade of 64 the memory is gone before it
+#: matters (issue 17: 35 factorisations), with 4 it holds the shift up after
+#: the saddle.
+SHIFT_MEMORY_FADE = 16.0
 
 
 class TransientSystem:
@@ -97,9 +111,23 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
     Shift control:
 
     - a shifted tangent with a negative direction (``system.factorize``
-      returns more than 0) or a singular one is refactorised with ``sigma``
-      four times larger (``sigma_floor`` if it was 0): every step is a descent
-      step of a convex model, which repels from saddles;
+      returns more than 0) or a singular one is refactorised with a larger
+      ``sigma`` (``sigma_floor`` if it was 0): every step is a descent step
+      of a convex model, which repels from saddles.  The first
+      refactorisation of a step quadruples ``sigma``, each further one
+      multiplies the last factor by four (x4, x16, x64, ...): the shift
+      needed is not known (the inertia counts the eigenvalues below
+      ``-sigma``, not how far below), a shift too large only shortens a step
+      (the step-length rule below lowers it again by up to ``max_decrease``
+      at the next), while each one too small costs a factorisation (after a
+      snap the shift needed grows by 10-100 from one state to the next);
+    - the largest shift found to leave a negative direction is remembered:
+      the tangent changes little over one step, so the next steps do not
+      lower ``sigma`` below four times it, and the memory fades by
+      :data:`SHIFT_MEMORY_FADE` per step (without it, the step-length rule
+      below divides ``sigma`` by up to ``max_decrease`` back into the range
+      just found too small at a nearby state, and each such step costs
+      several refactorisations again);
     - a step whose correction norm exceeds ``radius`` is cut to it, and a cut
       (or halved) step doubles ``sigma``; a full step divides it by four, and
       below ``sigma_floor`` it becomes exactly 0 (plain Newton); while full
@@ -171,8 +199,10 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
 
     sigma = float(shift)
     sigma_max = 1e6 * max(float(shift), sigma_floor)
+    too_small = 0.0  # the largest shift found to leave a negative direction, fading
     for it in range(max_iterations):
         K = system.tangent(u)
+        grow = 4.0
         while True:
             try:
                 k = system.factorize(K, u, sigma)
@@ -180,9 +210,11 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
                 k = -1  # singular: more damping
             if k is None or k == 0:
                 break
-            sigma = max(4.0 * sigma, sigma_floor)
-            if sigma > sigma_max:
+            too_small = max(too_small, sigma)
+            if sigma >= sigma_max:
                 return result(False, it, "no shift makes the tangent positive definite")
+            sigma = min(max(grow * sigma, sigma_floor), sigma_max)
+            grow *= 4.0
         du = system.correction(r)
         if not np.all(np.isfinite(du)):
             return result(False, it + 1, "NaN in the increment")
@@ -211,5 +243,7 @@ def pseudo_transient(system, u, *, utol: float, shift: float = 100.0,
             # max_decrease, aiming at a step of half the radius
             aim = 0.5 * radius / dn if dn > 0 else max_decrease
             f = min(max_decrease, max(4.0, aim))
-            sigma = sigma / f if sigma / f >= sigma_floor else 0.0
+            sigma = max(sigma / f, 4.0 * too_small)
+            sigma = sigma if sigma >= sigma_floor else 0.0
+        too_small /= SHIFT_MEMORY_FADE
     return result(False, max_iterations, "pseudo-transient iteration did not settle")
