@@ -36,6 +36,38 @@ def test_post_step_test_returns_the_stepped_iterate_without_an_extra_linearisati
     assert plain.converged and plain.iterations == res.iterations + 1
 
 
+def test_error_estimate_stops_one_linearisation_earlier_within_utol():
+    """With ``error_estimate`` the iteration stops once the contraction of the
+    last two corrections puts the corrected iterate within ``utol`` of the
+    solution: on u^2 = 2 from 3 (corrections 1.17, 0.371, 0.0471, 7.85e-4,
+    2.18e-7, 1.7e-14) one linearisation fewer than the rule that waits for
+    a correction below ``utol`` where the estimate falls below ``utol`` a
+    step before the correction does (utol 1e-4 and 1e-9; at 1e-6 both stop
+    at the fifth), and the returned point is as close as the estimate says
+    (Newton converges quadratically, so closer still)."""
+    same = [newton(_sqrt2(), np.array([3.0]), [2.0],
+                   tol=Tolerances(rtol=np.inf, utol=1e-6, error_estimate=e)).iterations
+            for e in (False, True)]
+    assert same == [5, 5]
+    for utol in (1e-4, 1e-9):
+        rule = Tolerances(rtol=np.inf, utol=utol)
+        plain = newton(_sqrt2(), np.array([3.0]), [2.0], tol=rule)
+        est = newton(_sqrt2(), np.array([3.0]), [2.0],
+                     tol=Tolerances(rtol=np.inf, utol=utol, error_estimate=True))
+        assert plain.converged and est.converged
+        assert est.iterations == plain.iterations - 1
+        c = [h[1] for h in est.history]
+        theta = c[-1] / c[-2]
+        assert theta <= 0.5 and theta / (1 - theta) * c[-1] <= utol
+        assert abs(est.u[0] - np.sqrt(2.0)) <= utol
+    # no estimate without a contraction: a first correction alone never stops
+    one = newton(_sqrt2(), np.array([np.sqrt(2.0) + 1e-7]), [2.0],
+                 tol=Tolerances(rtol=np.inf, utol=1e-3, error_estimate=True))
+    assert one.converged and one.iterations == 1  # by the plain rule (1e-7 <= utol)
+    with pytest.raises(ParameterError, match="error_estimate"):
+        Tolerances(error_estimate=1)
+
+
 def test_divergence_floor_tolerates_small_oscillating_corrections():
     """Corrections that grow beyond 10x the first but stay below the floor are
     not 'diverging' with a floor; without one they are."""

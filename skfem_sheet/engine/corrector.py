@@ -55,6 +55,20 @@ class Tolerances:
         "diverging".  A floor suits problems whose corrections are
         non-monotone for a few iterations (a bending step of a thin sheet
         leaves a membrane residual for the next one).
+    error_estimate : bool
+        Also stop on Newton's own error estimate (Deuflhard, *Newton Methods
+        for Nonlinear Problems*, Springer 2004, ch. 2): from the second
+        linearisation on, with the contraction ``theta = c_k / c_{k-1}`` of
+        the last two corrections (in the norm of ``utol``) at most 1/2 (the
+        iteration converges), the iterate plus its correction ``c_k`` is
+        within ``theta / (1 - theta) c_k`` of the solution (the bound of a
+        linearly contracting iteration, pessimistic for Newton's quadratic
+        one); when that is at most ``utol``, the corrected iterate is
+        returned, whatever the residual at the iterate (which, one
+        correction away from the solution of a stiff system, is still large:
+        a correction of 1e-5 a of a thin sheet leaves residuals of the order
+        of the weight).  Saves the linearisation that would only confirm
+        convergence.  Off by default.
     """
 
     rtol: float = 1e-10
@@ -63,6 +77,7 @@ class Tolerances:
     max_halvings: int = 6
     max_correction: float = np.inf
     divergence_floor: float | None = None
+    error_estimate: bool = False
 
     def __post_init__(self):
         if self.rtol != np.inf:  # inf: no bound on the residual, the correction decides
@@ -70,6 +85,9 @@ class Tolerances:
         check_range("utol", self.utol, 0, None, lo_open=True)
         check_range("max_iterations", self.max_iterations, 1, 1000)
         check_range("max_halvings", self.max_halvings, 0, 60)
+        if not isinstance(self.error_estimate, (bool, np.bool_)):
+            raise ParameterError(f"error_estimate must be True or False, got "
+                                 f"{self.error_estimate!r}")
         if not self.max_correction > 0:  # inf allowed (no guard)
             raise ParameterError(f"max_correction must be in (0, inf], got {self.max_correction!r}")
         if self.divergence_floor is not None:
@@ -222,6 +240,11 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
         if converged is None and rn <= tol.rtol and dn <= tol.utol:
             u, p = u + du, p + dp
             return result(True, "", it)
+        if converged is None and tol.error_estimate and it >= 2 and history[-2][1] > 0:
+            theta = dn / history[-2][1]  # the contraction of the last two corrections
+            if theta <= 0.5 and theta / (1.0 - theta) * dn <= tol.utol:
+                u, p = u + du, p + dp
+                return result(True, "", it)
         if first is None:
             first = dn
             if dn > tol.max_correction:
