@@ -351,6 +351,26 @@ def test_scaling_and_matching_avoid_perturbed_pivots(half):
 
 
 @pytest.mark.skipif("pardiso" not in DIRECT, reason="needs pypardiso")
+def test_pardiso_refines_only_after_perturbed_pivots(tangent):
+    _, K, b = tangent
+    # iparm(8) = 0: an exact factorisation is back-substituted once (no
+    # refinement step, which would double a solve's cost) and still solves the
+    # sheet's tangent to round-off; a factorisation with perturbed pivots is
+    # refined (PARDISO's two steps), which brings its solution back to the
+    # unperturbed matrix
+    s = make_linear_solver("pardiso")
+    s.factorize(K)
+    x = s.solve(b)
+    assert s.perturbed_pivots == 0 and s.refinement_steps == 0
+    assert np.linalg.norm(K @ x - b) <= 1e-9 * np.linalg.norm(b)
+    t = make_linear_solver("pardiso")  # (one solver per sparsity pattern)
+    t.factorize(nearly_singular_saddle_point(30, 8, 1e-10))
+    assert t.perturbed_pivots >= 1
+    t.solve(np.random.default_rng(4).standard_normal(38))
+    assert t.refinement_steps >= 1
+
+
+@pytest.mark.skipif("pardiso" not in DIRECT, reason="needs pypardiso")
 @pytest.mark.parametrize("kw, name", [(dict(reproducible=1), "reproducible"),
                                       (dict(scaling="yes"), "scaling"),
                                       (dict(pivot_perturbation=0), "pivot_perturbation"),
@@ -454,7 +474,7 @@ r = solve(Sheet(length=1.299, tip_width=0.633, curvature=5.112, thickness=0.02, 
           path="gravity-first", hmax=0.08, on_failure="return")
 print(json.dumps(dict(d=float(r.deflection).hex(), newton=r.newton_iterations,
                       factorizations=r.factorizations, stable=r.stable, converged=r.converged,
-                      snaps=[[str(x) for x in s] for s in r.snaps])))
+                      snaps=[repr(s) for s in r.snaps])))
 """
 
 
