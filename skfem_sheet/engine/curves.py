@@ -10,8 +10,8 @@ unit tangent ``t`` at the previous point ``k``.  A Newton iteration costs one
 factorisation of the tangent ``K``: the bordered solve for ``sigma`` and the
 Newton system bordered by two rows and columns are back-substitutions with it
 (:class:`~skfem_sheet.engine.corrector.Bordered`); the derivatives of
-``sigma`` come from tangent assemblies (directional difference along ``v``
-in the state, central differences in the parameters).  The tangent of the
+``sigma`` come from residuals (second differences along ``v`` in the state,
+differences of ``v . K v`` in the parameters; see :mod:`.fold`).  The tangent of the
 curve at a converged point is one more bordered solve with its last
 factorisation.
 
