@@ -205,3 +205,26 @@ def test_fold_on_branch_stops_at_the_stated_load_tolerance():
         assert f.side == -1 and abs(f.a - (-2.0)) <= 20 * np.sqrt(ptol) + 1e-6
         counts[ptol] = c.stats().factorizations
     assert counts[1e-3] < counts[1e-12]
+
+
+@pytest.mark.parametrize("one_sided", [False, True])
+def test_sigma_derivatives_from_residuals_are_the_exact_third_derivatives(one_sided):
+    # E = u1^4/4 + p0 u1 u2^2 + p1 u2^3/3: R = grad E is cubic in u and linear
+    # in p, so the residual differences are exact (to round-off) for any step:
+    # d sigma/du = -D^2 R[v, v] and d sigma/dp = -v.(dK/dp)v, worked by hand
+    def R(u, p):
+        return np.array([u[0]**3 + p[0] * u[1]**2, 2 * p[0] * u[0] * u[1] + p[1] * u[1]**2])
+
+    def K(u, p):
+        return np.array([[3 * u[0]**2, 2 * p[0] * u[1]],
+                         [2 * p[0] * u[1], 2 * p[0] * u[0] + 2 * p[1] * u[1]]])
+
+    P = FunctionProblem(R, K, ("p0", "p1"))
+    P.fd_one_sided = one_sided
+    u, p, v = np.array([0.7, -1.3]), np.array([0.4, 1.1]), np.array([0.6, 0.8])
+    g_u, g_p = FoldSystem(Counting(P), v, (0, 1)).sigma_derivatives(u, p, v)
+    D2R = np.array([6 * u[0] * v[0]**2 + 2 * p[0] * v[1]**2,
+                    4 * p[0] * v[0] * v[1] + 2 * p[1] * v[1]**2])
+    vKv_p = np.array([4 * u[1] * v[0] * v[1] + 2 * u[0] * v[1]**2, 2 * u[1] * v[1]**2])
+    np.testing.assert_allclose(g_u, -D2R, rtol=1e-7)
+    np.testing.assert_allclose(g_p, -vKv_p, rtol=1e-6)
