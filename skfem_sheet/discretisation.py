@@ -28,8 +28,14 @@ __all__ = ["TaylorHoodSpace", "SaddlePointLayout"]
 
 
 def element_laplacian(dx, dphi):
-    """``int grad phi_a . grad phi_b`` per element, shape (nel, 10, 10)."""
-    return np.einsum("eq,eqaj,eqbj->eab", dx, dphi, dphi)
+    """``int grad phi_a . grad phi_b`` per element, shape (nel, 10, 10).
+
+    One batched product over the quadrature points and components together
+    (a tenth of the time of the equivalent ``einsum``, which loops in C
+    without BLAS: 0.006 s against 0.063 s on 11k elements)."""
+    nel, nq, na, nd = dphi.shape
+    W = (dphi * dx[:, :, None, None]).transpose(0, 2, 1, 3).reshape(nel, na, nq * nd)
+    return np.matmul(W, dphi.transpose(0, 1, 3, 2).reshape(nel, nq * nd, na))
 
 
 @dataclass(frozen=True, eq=False)
@@ -250,15 +256,15 @@ class TaylorHoodSpace:
         E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))
         A = E1 @ np.linalg.inv(E0)  # x1 - x1_0 = A (x0 - x0_0)
         Ainv = np.linalg.inv(A)
-        dphi = np.einsum("eqaj,ejk->eqak", self.dphi, Ainv)
+        dphi = np.matmul(self.dphi, Ainv[:, None])  # (batched products, not einsum)
         dx = self.dx * np.abs(np.linalg.det(A))[:, None]
         en = self.element_nodes
         rel = self.nodes[en] - X0[:, 0].T[:, None, :]  # (nel, 10, 3)
         nodes = np.empty_like(self.nodes)
-        nodes[en] = np.einsum("eij,eaj->eai", A, rel) + X1[:, 0].T[:, None, :]
+        nodes[en] = np.matmul(rel, A.transpose(0, 2, 1)) + X1[:, 0].T[:, None, :]
         load_z = np.zeros(self.ndof)
         load_z[:self.nu_dof] = np.bincount(
-            (3 * en + 2).ravel(), np.einsum("eq,eqa->ea", dx, self.phi2).ravel(),
+            (3 * en + 2).ravel(), np.matmul(dx[:, None, :], self.phi2).ravel(),
             minlength=self.nu_dof)
         return replace(self, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx, nodes=nodes,
                        laplacian=element_laplacian(dx, dphi), load_z=load_z,
