@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from ..engine import Tolerances
 from ..sheet_shape import TOLERANCES
 
-__all__ = ["FINE_TOLERANCES", "MAX_REMESHES", "PREDICTOR", "REFILL_DS", "SECOND",
+__all__ = ["FINE_TOLERANCES", "MAX_REMESHES", "MESH_LENGTH_GRID", "PREDICTOR", "REFILL_DS", "SECOND",
            "TARGET_CORRECTION", "TOLERANCES", "FoldCurveOptions", "default_start_length",
            "kind"]
 
@@ -41,6 +41,16 @@ MAX_REMESHES = 40
 #: with those points), against 1e-3 to 2e-3 between hmax 0.06 and 0.03.
 FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3,
                              error_estimate=True)
+
+#: The fine meshes of a refinement are made at lengths on this grid (L/a):
+#: the median of the lengths carried to a level, rounded.  A mesh made at
+#: another length is another unstructured mesh, and at hmax 0.03 that moves
+#: the fold lengths by up to 1e-4 (measured: a/R 3.5, a median 1.4e-5 longer
+#: from Newton's round-off moved L1* by 1.2e-4); on the grid the meshes, and
+#: so the fine folds, do not follow round-off in the coarse points.  Any
+#: length within a few per cent serves (a mesh covers a stretch of
+#: REMESH_STRETCH either way).
+MESH_LENGTH_GRID = 0.05
 
 #: First and largest arclength step of the continuation on a fine mesh
 #: that replaces an end which could not be refined

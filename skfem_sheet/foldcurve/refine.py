@@ -26,6 +26,7 @@ from ..sheet_shape import REMESH_STRETCH, SheetFoldProblem
 from .cusp import cusp_by_coefficient, fine_cusp
 from .options import (
     FINE_TOLERANCES,
+    MESH_LENGTH_GRID,
     PREDICTOR,
     REFILL_DS,
     SECOND,
@@ -164,7 +165,9 @@ class FineMeshes:
             L_m = P.mesh_parameters[0]
             if L_m / REMESH_STRETCH <= L <= L_m * REMESH_STRETCH:
                 return P
+        # the median of the band, within 20% of L, on the grid
         L_m = float(np.clip(np.median(band), L / 1.2, L * 1.2))
+        L_m = max(MESH_LENGTH_GRID, round(L_m / MESH_LENGTH_GRID) * MESH_LENGTH_GRID)
         P = SheetFoldProblem(self.curvature, self.hmax, mesh_length=L_m,
                              mesh_tip_width=self.tip_width, solver_slots=1, cache=4, **self.kw)
         self.meshes.append(P)
