@@ -218,3 +218,22 @@ def test_cli_fold_curve_writes_its_series(tmp_path):
     steps = read_pvd(tmp_path / "s" / "fold-curve_aR2.5.pvd")
     assert len(steps) == len(data["points"]) > 3
     assert np.all(np.diff([t for t, _ in steps]) > 0)
+
+
+def test_fine_meshes_do_not_follow_round_off_in_the_carried_lengths():
+    # the fine mesh of a band is made at its median length rounded to the
+    # grid: lengths that differ by round-off (1e-5) give the same mesh, so the
+    # fine folds do not move with them (another unstructured mesh moved them
+    # by 1e-4 at hmax 0.03); a band elsewhere gets its own grid length
+    from skfem_sheet.foldcurve.options import MESH_LENGTH_GRID
+    from skfem_sheet.foldcurve.refine import FineMeshes
+    band = [1.13, 1.2171, 1.26, 1.31]
+    lengths = []
+    for shift in (0.0, 1e-5, -1e-5):
+        fine = FineMeshes(2.5, 0.3, 1.0, {})
+        P = fine.for_length(1.2 + shift, [x + shift for x in band])
+        lengths.append(P.mesh_parameters[0])
+    assert lengths[0] == lengths[1] == lengths[2] == pytest.approx(1.25)
+    assert abs(lengths[0] / MESH_LENGTH_GRID - round(lengths[0] / MESH_LENGTH_GRID)) < 1e-12
+    assert FineMeshes(2.5, 0.3, 1.0, {}).for_length(1.6, [1.6, 1.62]).mesh_parameters[0] \
+        == pytest.approx(1.6)
