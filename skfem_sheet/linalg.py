@@ -454,7 +454,14 @@ class PardisoSolver(_Timed):
 
     def _upper(self, K):
         if (self._pattern is None or self._pattern[0].shape != K.indices.shape
-                or not np.array_equal(self._pattern[0], K.indices)):
+                or not np.array_equal(self._pattern[0], K.indices)
+                or (self._U is not None and self._U.shape != K.shape)):
+            if self._U is not None:
+                # another matrix: PARDISO's memory of the last one is released
+                # first (a new analysis on a handle that holds factors of
+                # another size aborts the process inside MKL)
+                self._call(-1, self._U, np.zeros((self._U.shape[0], 1)))
+                self._U = None
             U = sp.triu(K, format="csr")
             U.sort_indices()
             self._pattern = (K.indices.copy(), U.indptr, U.indices)
