@@ -39,6 +39,7 @@ import sys
 import tempfile
 import time
 import traceback
+from collections import Counter
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -54,7 +55,7 @@ __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "l
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
            "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
-           "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
+           "add_start_option", "coarse_fields", "compare_journals", "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
            "run_journalled", "parser", "peak_rss_bytes", "RESULTS"]
 
 GB = 1024.0 ** 3
@@ -738,8 +739,25 @@ def solve_key(p, path):
                        p["modulus"], path])
 
 
-def solve_or_crash(p, path, hmax, fields):
-    """One solve of sample point ``p`` at ``min(hmax, L/2)`` as a JSON-ready record.
+def coarse_fields(r):
+    """The coarse start's part of a record: its mesh, its work (factorisations
+    and Newton iterations on the coarse mesh, not in ``factorizations``) and
+    why it fell back to the path on the fine mesh ("" if it did not)."""
+    return dict(coarse_hmax=r.coarse_hmax, coarse_factorizations=r.coarse_factorizations,
+                coarse_newton_iterations=r.start_record.coarse_newton_iterations,
+                coarse_fallback=r.coarse_fallback)
+
+
+def add_start_option(ap):
+    """``--start coarse|path``: ``solve``'s start strategy for every solve
+    (default ``coarse``, ``solve``'s own)."""
+    ap.add_argument("--start", choices=("coarse", "path"), default="coarse",
+                    help="solve's start strategy (default: coarse, solve's default)")
+
+
+def solve_or_crash(p, path, hmax, fields, start="coarse"):
+    """One solve of sample point ``p`` at ``min(hmax, L/2)`` as a JSON-ready record
+    (``start``: ``solve``'s start strategy).
 
     ``status`` is ``converged`` (full load reached), ``failed`` (a cleanly
     reported failure, ``on_failure="return"``) or ``crash`` (an exception
@@ -749,11 +767,81 @@ def solve_or_crash(p, path, hmax, fields):
     t0 = time.perf_counter()
     try:
         r = solve(Sheet(**{k: p[k] for k in SHEET_FIELDS}), path=path,
-                  hmax=min(hmax, p["length"] / 2), on_failure="return")
+                  hmax=min(hmax, p["length"] / 2), on_failure="return", start=start)
     except Exception as err:  # noqa: BLE001 - a crash is what these benchmarks count
         return dict(status="crash", error=f"{type(err).__name__}: {err}",
                     traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)
     return dict(status="converged" if r.converged else "failed", **fields(r))
+
+
+def _read_journal(path):
+    out = {}
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if line:
+                rec = json.loads(line)
+                out[rec["key"]] = rec
+    return out
+
+
+def _snaps(rec):
+    return [(s["phase"], float(s["load"])) for s in rec.get("snaps") or []]
+
+
+def compare_journals(a_path, b_path, d_tol=1e-6, load_tol=1e-3):
+    """Two journals of ``stress.py`` or ``snap_sample.py`` (their ``--compare``)
+    paired solve by solve; prints the report and returns 1 if any solve differs.
+
+    Whether every solve ends alike (status, stability; the same snaps, phase
+    by phase, their located fold loads within ``load_tol``; where the snaps
+    agree, d within ``d_tol``), every difference, the coarse start's
+    fallbacks by reason, and the totals of Newton iterations and
+    factorisations on the mesh of the solve and on the coarse mesh.
+    """
+    A, B = _read_journal(a_path), _read_journal(b_path)
+    keys = [k for k in A if k in B]
+    print(f"{len(keys)} solves paired ({len(A)} in {a_path}, {len(B)} in {b_path})")
+    totals = Counter()
+    differ, reasons, d_max, load_max = [], Counter(), 0.0, 0.0
+    for k in keys:
+        a, b = A[k], B[k]
+        for name, rec in (("before", a), ("after", b)):
+            for field in ("newton_iterations", "factorizations", "coarse_factorizations",
+                          "coarse_newton_iterations"):
+                totals[f"{name} {field}"] += rec.get(field) or 0
+        if b.get("coarse_fallback"):
+            reasons[b["coarse_fallback"].split(":")[0]] += 1
+        if (a["status"], a.get("stable")) != (b["status"], b.get("stable")):
+            differ.append(f"{k}: status/stable {a['status']}/{a.get('stable')} -> "
+                          f"{b['status']}/{b.get('stable')}")
+            continue
+        sa, sb = _snaps(a), _snaps(b)
+        if len(sa) != len(sb) or any(x[0] != y[0] or abs(x[1] - y[1]) > load_tol
+                                     for x, y in zip(sa, sb)):
+            differ.append(f"{k}: snaps {sa} -> {sb} (d {a.get('deflection')!r} -> "
+                          f"{b.get('deflection')!r})")
+            continue
+        load_max = max([load_max] + [abs(x[1] - y[1]) for x, y in zip(sa, sb)])
+        if a["status"] == "converged":
+            d = abs(a["deflection"] - b["deflection"])
+            d_max = max(d_max, d)
+            if d > d_tol:
+                differ.append(f"{k}: d {a['deflection']!r} -> {b['deflection']!r}")
+    print(f"same status, stability and snaps: {len(keys) - len(differ)} of {len(keys)}; "
+          f"largest |d change| there {d_max:.2g}, largest fold-load change {load_max:.2g}")
+    not_stable = sum(1 for k in keys if B[k]["status"] == "converged"
+                     and B[k].get("stable") is not True)
+    print(f"converged but not verified stable (after): {not_stable}")
+    for name in ("before", "after"):
+        print(f"{name:6s}: Newton {totals[f'{name} newton_iterations']}, factorisations "
+              f"{totals[f'{name} factorizations']} on the mesh of the solve; coarse mesh: "
+              f"Newton {totals[f'{name} coarse_newton_iterations']}, factorisations "
+              f"{totals[f'{name} coarse_factorizations']}")
+    print(f"coarse start fell back to the path (after): {sum(reasons.values())}"
+          + "".join(f"\n  {n:3d}  {r}" for r, n in reasons.most_common()))
+    print(f"differences: {len(differ)}" + "".join(f"\n  {x}" for x in differ))
+    return 1 if differ else 0
 
 
 def read_jsonl(out):

@@ -66,7 +66,10 @@ r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failu
           **kw)
 print(json.dumps(dict(d=r.deflection, converged=r.converged, stable=r.stable, branch=r.branch,
                       newton_iterations=r.newton_iterations, factorizations=r.factorizations,
-                      snaps=[s.to_json() for s in r.snaps], wall_s=time.perf_counter() - t)))
+                      snaps=[s.to_json() for s in r.snaps], wall_s=time.perf_counter() - t,
+                      coarse_hmax=r.coarse_hmax, coarse_factorizations=r.coarse_factorizations,
+                      coarse_newton_iterations=r.start_record.coarse_newton_iterations,
+                      coarse_fallback=r.coarse_fallback)))
 """
 
 ENV = dict(MKL_CBWR="COMPATIBLE", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")

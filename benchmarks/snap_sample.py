@@ -1,6 +1,8 @@
 """Verified end states and snap cost over thin and soft sheets (issue 17).
 
     python benchmarks/snap_sample.py [--n 50] [--seed 17] [--hmax 0.1] [--out snap_sample.jsonl]
+        [--start coarse|path] [--shard K:N]
+    python benchmarks/snap_sample.py --compare BEFORE.jsonl AFTER.jsonl
 
 A seeded random sample of ``--n`` sheets with L/a in [0.2, 3], b/a in [0, 1],
 a/R in [0, 6] (spread as in ``benchmarks/stress.py``), thickness h/a in
@@ -28,7 +30,10 @@ import numpy as np
 
 from harness import (
     add_shard_option,
+    add_start_option,
     both_paths,
+    coarse_fields,
+    compare_journals,
     parse_shard,
     parser,
     random_sheets,
@@ -56,12 +61,13 @@ def _fields(r):
                 negative_eigenvalues=r.negative_eigenvalues, snaps=[s.to_json() for s in r.snaps],
                 branch=r.branch, newton_iterations=r.newton_iterations,
                 factorizations=r.factorizations, load_steps=r.load_steps,
-                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs)
+                rejected_steps=r.rejected_steps, wall_time_s=r.wall_time_s, dofs=r.dofs,
+                **coarse_fields(r))
 
 
-def run_point(p, path, hmax):
+def run_point(p, path, hmax, start="coarse"):
     """One solve as a JSON-ready record."""
-    return solve_or_crash(p, path, hmax, _fields)
+    return solve_or_crash(p, path, hmax, _fields, start)
 
 
 def _stats(xs):
@@ -111,7 +117,12 @@ def main(argv=None):
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="snap_sample.jsonl")
     add_shard_option(ap)
+    add_start_option(ap)
+    ap.add_argument("--compare", nargs=2, metavar=("BEFORE.jsonl", "AFTER.jsonl"),
+                    help="pair two journals solve by solve instead (exit 1 if any differs)")
     args = ap.parse_args(argv)
+    if args.compare:
+        return compare_journals(*args.compare)
     shard = parse_shard(args.shard)
     todo = both_paths(sample(args.n, args.seed))
 
@@ -121,7 +132,8 @@ def main(argv=None):
               f"{len(rec.get('snaps', []))} snap(s), {rec['wall_time_s']:.1f} s",
               file=sys.stderr, flush=True)
 
-    done = run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax),
+    done = run_journalled(todo, args.out,
+                          lambda p, path: run_point(p, path, args.hmax, args.start),
                           shard=shard, report=report_one)
     if shard[1] > 1:
         return 0

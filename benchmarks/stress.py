@@ -1,6 +1,8 @@
 """Stress test of the 3D solver over the whole parameter space (issue 5).
 
     python benchmarks/stress.py [--n 100] [--seed 1] [--hmax 0.1] [--out stress.jsonl]
+        [--start coarse|path] [--shard K:N]
+    python benchmarks/stress.py --compare BEFORE.jsonl AFTER.jsonl
 
 A seeded random sample of ``--n`` points over L/a in [0.2, 3], b/a in [0, 1],
 a/R in [0, 6], plus the corners (sharp tip, a/R = 6, very short and very long
@@ -23,7 +25,10 @@ import sys
 
 from harness import (
     add_shard_option,
+    add_start_option,
     both_paths,
+    coarse_fields,
+    compare_journals,
     parse_shard,
     parser,
     random_sheets,
@@ -61,11 +66,11 @@ def _fields(r):
                 load_steps=r.load_steps, rejected_steps=r.rejected_steps,
                 factorizations=r.factorizations,
                 wall_time_s=r.wall_time_s, dofs=r.dofs, stable=r.stable,
-                snaps=[s.to_json() for s in r.snaps])
+                snaps=[s.to_json() for s in r.snaps], **coarse_fields(r))
 
 
-def run_point(p, path, hmax):
-    return solve_or_crash(p, path, hmax, _fields)
+def run_point(p, path, hmax, start="coarse"):
+    return solve_or_crash(p, path, hmax, _fields, start)
 
 
 def main(argv=None):
@@ -75,13 +80,18 @@ def main(argv=None):
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="stress.jsonl")
     add_shard_option(ap)
+    add_start_option(ap)
     ap.add_argument("--reverse", action="store_true",
                     help="work through the shard from its end (a second worker on a shard)")
+    ap.add_argument("--compare", nargs=2, metavar=("BEFORE.jsonl", "AFTER.jsonl"),
+                    help="pair two journals solve by solve instead (exit 1 if any differs)")
     args = ap.parse_args(argv)
+    if args.compare:
+        return compare_journals(*args.compare)
     shard = parse_shard(args.shard)
     todo = both_paths(sample(args.n, args.seed))
-    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax), shard=shard,
-                   reverse=args.reverse, progress="stress")
+    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, args.start),
+                   shard=shard, reverse=args.reverse, progress="stress")
     if shard[1] > 1:
         return 0
     done = read_jsonl(args.out)  # with the solves of other workers on the same file

@@ -39,7 +39,8 @@ CHILD = """
 import json, sys
 from skfem_sheet import Sheet, solve
 spec = json.loads(sys.argv[1])
-r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return")
+r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return",
+          start=spec.get("start", "path"))
 print(json.dumps(dict(d=r.deflection, iterations=r.newton_iterations, converged=r.converged,
                       stable=r.stable, negative_eigenvalues=r.negative_eigenvalues,
                       snaps=[s.to_json() for s in r.snaps], branch=r.branch, message=r.message)))
@@ -47,6 +48,9 @@ print(json.dumps(dict(d=r.deflection, iterations=r.newton_iterations, converged=
 
 OTHER = {"gravity-first": "curvature-first", "curvature-first": "gravity-first"}
 
+# The load path itself (start="path"): since hmax 0.1 and 0.08 take the coarse start
+# from 0.2 and 0.16 by default, the default solve's Newton on the fine mesh counts only
+# its finish (benchmarks/results/robustness/snap_baseline_coarseauto.txt).
 # sheet, snapping path, hmax, bound on the Newton iterations of the snapping path.
 # Measured with the load path by located folds (continuation in the load, the fold
 # located with the minimally augmented test function, the snap settled from it):
@@ -242,12 +246,30 @@ def test_the_pop_up_fold_is_located_with_either_newton(linearization):
     snap; traced by continuation in the curvature, the fold is located (the
     same load with either Newton matrix, to the fold system's tolerance) and
     the sheet snaps from it."""
+    # on the path on hmax 0.1 (the default start runs it on hmax 0.2, where the exact
+    # Newton jumps this fold: the test below)
     r = solve(Sheet(length=1.4739, tip_width=0.7112, curvature=4.8448), path="gravity-first",
               hmax=0.1, newton_options=NewtonOptions(linearization=linearization),
-              on_failure="return")
+              on_failure="return", start="path")
     assert r.converged and r.stable is True and r.negative_eigenvalues == 0
     assert r.deflection < 0  # standing: the tip above the clamp
     assert len(r.snaps) == 1 and r.snaps[0].phase == "curvature"
     assert r.snaps[0].load == pytest.approx(0.76266, abs=1e-4)
     assert r.snaps[0].negative_eigenvalues == (0, 1)
     assert r.branch == "curvature-dominated"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known (issue 26): on hmax 0.2 the exact-Newton path steps from 0.7427 of the curvature "
+    "ramp, where the branch is within 1 degree of its fold (tangent load component 0.016), "
+    "onto the standing branch at 0.8104: corrector distance 0.067 a, below the nominal "
+    "0.074, so no halving test; the half step jumps too.  The secants turn by 52 degrees "
+    "there, 3-23 on four other paths measured.  MIP Newton (the default) locates the fold "
+    "on hmax 0.2 (0.7434)."))
+def test_the_default_start_with_exact_newton_snaps_at_the_pop_up_fold():
+    """The same sheet with the default start: the load path on hmax 0.2, carried to 0.1."""
+    r = solve(Sheet(length=1.4739, tip_width=0.7112, curvature=4.8448), path="gravity-first",
+              hmax=0.1, newton_options=NewtonOptions(linearization="exact"),
+              on_failure="return")
+    assert r.converged and r.coarse_hmax == 0.2
+    assert len(r.snaps) == 1 and r.snaps[0].load == pytest.approx(0.76266, abs=1e-4)
