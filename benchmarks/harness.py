@@ -55,7 +55,7 @@ __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "l
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
            "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
-           "add_start_option", "coarse_fields", "compare_journals", "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
+           "add_start_option", "start_options", "coarse_fields", "compare_journals", "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
            "run_journalled", "parser", "peak_rss_bytes", "RESULTS"]
 
 GB = 1024.0 ** 3
@@ -749,15 +749,25 @@ def coarse_fields(r):
 
 
 def add_start_option(ap):
-    """``--start coarse|path``: ``solve``'s start strategy for every solve
-    (default ``coarse``, ``solve``'s own)."""
+    """``--start coarse|path`` and ``--coarse-hmax H``: ``solve``'s start
+    strategy and coarse mesh for every solve (default: ``solve``'s own)."""
     ap.add_argument("--start", choices=("coarse", "path"), default="coarse",
                     help="solve's start strategy (default: coarse, solve's default)")
+    ap.add_argument("--coarse-hmax", type=float, default=None,
+                    help="the coarse start's mesh (default: solve's, 0.1)")
 
 
-def solve_or_crash(p, path, hmax, fields, start="coarse"):
+def start_options(args):
+    """``solve`` keywords of :func:`add_start_option`'s options."""
+    out = {"start": args.start}
+    if args.coarse_hmax is not None:
+        out["coarse_hmax"] = args.coarse_hmax
+    return out
+
+
+def solve_or_crash(p, path, hmax, fields, options=None):
     """One solve of sample point ``p`` at ``min(hmax, L/2)`` as a JSON-ready record
-    (``start``: ``solve``'s start strategy).
+    (``options``: further keywords of ``solve``, e.g. :func:`start_options`).
 
     ``status`` is ``converged`` (full load reached), ``failed`` (a cleanly
     reported failure, ``on_failure="return"``) or ``crash`` (an exception
@@ -767,7 +777,7 @@ def solve_or_crash(p, path, hmax, fields, start="coarse"):
     t0 = time.perf_counter()
     try:
         r = solve(Sheet(**{k: p[k] for k in SHEET_FIELDS}), path=path,
-                  hmax=min(hmax, p["length"] / 2), on_failure="return", start=start)
+                  hmax=min(hmax, p["length"] / 2), on_failure="return", **(options or {}))
     except Exception as err:  # noqa: BLE001 - a crash is what these benchmarks count
         return dict(status="crash", error=f"{type(err).__name__}: {err}",
                     traceback=traceback.format_exc(), wall_time_s=time.perf_counter() - t0)

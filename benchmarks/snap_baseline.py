@@ -6,6 +6,7 @@ Usage::
 
     python benchmarks/snap_baseline.py OUT.jsonl [CHECKOUT]  # run the set (on that checkout)
     python benchmarks/snap_baseline.py OUT.jsonl --options '{"newton": {"linearization": "mip"}}'
+    python benchmarks/snap_baseline.py OUT.jsonl --options '{"solve": {"coarse_hmax": 0.2}}'
     python benchmarks/snap_baseline.py --compare A.jsonl B.jsonl
 
 ``--compare`` prints both runs side by side, the relative change of d, the
@@ -61,6 +62,7 @@ if "newton" in opts:
     kw["newton_options"] = NewtonOptions(**opts["newton"])
 if "step" in opts:
     kw["step_options"] = StepOptions(**opts["step"])
+kw.update(opts.get("solve", {}))
 t = time.perf_counter()
 r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return",
           **kw)
@@ -127,7 +129,8 @@ def main(argv=None):
     ap.add_argument("root", nargs="?", default=ROOT,
                     help="the checkout whose skfem_sheet solves the cases (default: this one)")
     ap.add_argument("--options", type=json.loads, default=None,
-                    help='JSON of NewtonOptions / StepOptions, e.g. \'{"newton": {...}}\'')
+                    help='JSON of NewtonOptions / StepOptions / solve keywords, e.g. '
+                         '\'{"newton": {...}, "step": {...}, "solve": {"coarse_hmax": 0.2}}\'')
     ap.add_argument("--compare", nargs=2, metavar=("A.jsonl", "B.jsonl"),
                     help="compare two runs instead (exit 1 unless bit for bit)")
     args = ap.parse_args(argv)

@@ -1,7 +1,7 @@
 """Verified end states and snap cost over thin and soft sheets (issue 17).
 
     python benchmarks/snap_sample.py [--n 50] [--seed 17] [--hmax 0.1] [--out snap_sample.jsonl]
-        [--start coarse|path] [--shard K:N]
+        [--start coarse|path] [--coarse-hmax H] [--shard K:N]
     python benchmarks/snap_sample.py --compare BEFORE.jsonl AFTER.jsonl
 
 A seeded random sample of ``--n`` sheets with L/a in [0.2, 3], b/a in [0, 1],
@@ -40,6 +40,7 @@ from harness import (
     run_journalled,
     solve_key,
     solve_or_crash,
+    start_options,
 )
 
 
@@ -65,9 +66,9 @@ def _fields(r):
                 **coarse_fields(r))
 
 
-def run_point(p, path, hmax, start="coarse"):
+def run_point(p, path, hmax, options=None):
     """One solve as a JSON-ready record."""
-    return solve_or_crash(p, path, hmax, _fields, start)
+    return solve_or_crash(p, path, hmax, _fields, options)
 
 
 def _stats(xs):
@@ -133,7 +134,7 @@ def main(argv=None):
               file=sys.stderr, flush=True)
 
     done = run_journalled(todo, args.out,
-                          lambda p, path: run_point(p, path, args.hmax, args.start),
+                          lambda p, path: run_point(p, path, args.hmax, start_options(args)),
                           shard=shard, report=report_one)
     if shard[1] > 1:
         return 0

@@ -1,7 +1,7 @@
 """Stress test of the 3D solver over the whole parameter space (issue 5).
 
     python benchmarks/stress.py [--n 100] [--seed 1] [--hmax 0.1] [--out stress.jsonl]
-        [--start coarse|path] [--shard K:N]
+        [--start coarse|path] [--coarse-hmax H] [--shard K:N]
     python benchmarks/stress.py --compare BEFORE.jsonl AFTER.jsonl
 
 A seeded random sample of ``--n`` points over L/a in [0.2, 3], b/a in [0, 1],
@@ -36,6 +36,7 @@ from harness import (
     run_journalled,
     solve_key,
     solve_or_crash,
+    start_options,
 )
 
 
@@ -69,8 +70,8 @@ def _fields(r):
                 snaps=[s.to_json() for s in r.snaps], **coarse_fields(r))
 
 
-def run_point(p, path, hmax, start="coarse"):
-    return solve_or_crash(p, path, hmax, _fields, start)
+def run_point(p, path, hmax, options=None):
+    return solve_or_crash(p, path, hmax, _fields, options)
 
 
 def main(argv=None):
@@ -90,7 +91,7 @@ def main(argv=None):
         return compare_journals(*args.compare)
     shard = parse_shard(args.shard)
     todo = both_paths(sample(args.n, args.seed))
-    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, args.start),
+    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, start_options(args)),
                    shard=shard, reverse=args.reverse, progress="stress")
     if shard[1] > 1:
         return 0
