@@ -55,7 +55,8 @@ __all__ = ["richardson", "power_law_fit", "loglog_slope", "analyse_sequence", "l
            "solve_default",
            "estimate_unknowns", "parse_family", "fmt", "machine_info", "add_run_options",
            "open_store", "warn_if_busy", "interrupted", "random_sheets", "both_paths", "solve_key",
-           "add_start_option", "start_options", "coarse_fields", "compare_journals", "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
+           "add_start_option", "start_options", "coarse_fields", "compare_journals",
+           "solve_or_crash", "read_jsonl", "add_shard_option", "parse_shard",
            "run_journalled", "parser", "peak_rss_bytes", "RESULTS"]
 
 GB = 1024.0 ** 3
@@ -784,17 +785,6 @@ def solve_or_crash(p, path, hmax, fields, options=None):
     return dict(status="converged" if r.converged else "failed", **fields(r))
 
 
-def _read_journal(path):
-    out = {}
-    with open(path) as f:
-        for line in f:
-            line = line.strip()
-            if line:
-                rec = json.loads(line)
-                out[rec["key"]] = rec
-    return out
-
-
 def _snaps(rec):
     return [(s["phase"], float(s["load"])) for s in rec.get("snaps") or []]
 
@@ -809,7 +799,7 @@ def compare_journals(a_path, b_path, d_tol=1e-6, load_tol=1e-3):
     fallbacks by reason, and the totals of Newton iterations and
     factorisations on the mesh of the solve and on the coarse mesh.
     """
-    A, B = _read_journal(a_path), _read_journal(b_path)
+    A, B = read_jsonl(a_path), read_jsonl(b_path)
     keys = [k for k in A if k in B]
     print(f"{len(keys)} solves paired ({len(A)} in {a_path}, {len(B)} in {b_path})")
     totals = Counter()

@@ -133,8 +133,8 @@ def main(argv=None):
               f"{len(rec.get('snaps', []))} snap(s), {rec['wall_time_s']:.1f} s",
               file=sys.stderr, flush=True)
 
-    done = run_journalled(todo, args.out,
-                          lambda p, path: run_point(p, path, args.hmax, start_options(args)),
+    options = start_options(args)
+    done = run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, options),
                           shard=shard, report=report_one)
     if shard[1] > 1:
         return 0

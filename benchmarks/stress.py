@@ -91,7 +91,8 @@ def main(argv=None):
         return compare_journals(*args.compare)
     shard = parse_shard(args.shard)
     todo = both_paths(sample(args.n, args.seed))
-    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, start_options(args)),
+    options = start_options(args)
+    run_journalled(todo, args.out, lambda p, path: run_point(p, path, args.hmax, options),
                    shard=shard, reverse=args.reverse, progress="stress")
     if shard[1] > 1:
         return 0

@@ -40,7 +40,7 @@ import json, sys
 from skfem_sheet import Sheet, solve
 spec = json.loads(sys.argv[1])
 r = solve(Sheet(**spec["sheet"]), path=spec["path"], hmax=spec["hmax"], on_failure="return",
-          start=spec.get("start", "path"))
+          start="path")
 print(json.dumps(dict(d=r.deflection, iterations=r.newton_iterations, converged=r.converged,
                       stable=r.stable, negative_eigenvalues=r.negative_eigenvalues,
                       snaps=[s.to_json() for s in r.snaps], branch=r.branch, message=r.message)))
