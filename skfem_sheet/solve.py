@@ -72,7 +72,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
           newton_options: NewtonOptions | None = None,
           step_options: StepOptions | None = None,
           on_failure: str = "raise", progress: bool = False, series=None,
-          start="coarse", coarse_hmax: float = 0.1,
+          start="coarse", coarse_hmax: float | None = None,
           gravity: float = 1.0, sensitivities=(), chain: BuildChain | None = None) -> Result:
     """Equilibrium of a clamped, curved sheet under its own weight.
 
@@ -129,10 +129,12 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         path on the mesh ``hmax``.  Both reach the same equilibrium
         (``Result.start_record`` says what happened, and why the coarse path
         was not used where it was not).
-    coarse_hmax : float
-        Mesh size of the coarse path of ``start="coarse"``; it runs only
+    coarse_hmax : float, optional
+        Mesh size of the coarse path of ``start="coarse"``; by default
+        twice ``hmax``, at least 0.1 and at most 0.2
+        (:meth:`~skfem_sheet.starts.CoarseStart.coarse_mesh`).  It runs only
         where it is at least twice as coarse as ``hmax``
-        (``CoarseStart.min_coarsening``).
+        (``CoarseStart.min_coarsening``): from hmax 0.1 down.
     gravity : float
         The gravity load as a fraction of the sheet's own weight, in [0, 10]
         (default 1; 0: no gravity, the clamp's curvature alone, one phase

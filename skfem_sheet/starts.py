@@ -23,18 +23,21 @@ a :class:`Reached` (the end state at full load and its history):
     the coarse path's branch) and verified stable; otherwise the load path
     runs on the fine mesh instead (the record says why).
 
-A fold that the fine mesh has and the coarse one has not is not found: a
-sheet near the cusp of its bistable range, where the fold pair has vanished
-on the coarse mesh (or the coarse path stepped over a thin S of it).  The end
-state is then still the fine mesh's (Newton from the coarse one, on the
-branch the snap lands on), but ``snaps`` lacks that snap and ``branch`` is
-the path's own.  Measured with ``coarse_hmax=0.2`` at hmax 0.1
-(``benchmarks/results/robustness/*_coarse0.2.txt``): 1 of the stress set's
-224 solves (L 0.985, b 0.840, a/R 5.71, gravity-first), none of the snap
-sample's 100 and of the regression set's 12, and 1 of 12 solves of six
-sheets near the cusp (L 1.15, b 0.7, a/R 4.6, gravity-first).  That is why
-the coarse mesh is 0.1 and the path runs on its own mesh from hmax 0.05 up
-(``min_coarsening``); ``start="path"`` always records every fold of its mesh.
+The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
+at most 0.2 (:meth:`CoarseStart.coarse_mesh`): hmax 0.1 for the paper's
+0.03, 0.2 for a quick look at 0.1.  A fold that the fine mesh has and the
+coarse one has not is not found: the end state is then still the fine
+mesh's (Newton from the coarse one, on the branch the snap lands on), but
+``snaps`` lacks that snap and ``branch`` is the path's own.  Near the cusp
+of a sheet's bistable range the fold pair is thin, and the coarse path's
+steps used to cross it whole (measured at hmax 0.1 from 0.2: L 0.985, b
+0.840, a/R 5.71 and L 1.15, b 0.7, a/R 4.6, gravity-first, whose fold pairs
+hmax 0.2 has at 0.2421 and 0.4409 of the curvature ramp); the load path's
+search at the minima of the load's rate
+(:mod:`~skfem_sheet.engine.loadpath`) finds them.  With it the stress set's
+224 solves at hmax 0.1 snap as the path on hmax 0.1 does, 224 of 224
+(``benchmarks/results/robustness/stress_n100_seed1_hmax0.1_coarseauto.txt``).
+``start="path"`` records every fold of its mesh.
 """
 from __future__ import annotations
 
@@ -66,7 +69,8 @@ from .sheet_engine import LoadPhase, SheetLoadProblem
 
 log = logging.getLogger(__name__)
 
-__all__ = ["STARTS", "CoarseStart", "Job", "PathStart", "Reached", "make_start"]
+__all__ = ["COARSEST_HMAX", "COARSE_HMAX", "STARTS", "CoarseStart", "Job", "PathStart", "Reached",
+           "make_start"]
 
 #: The names of the start strategies (``solve(start=...)``).
 STARTS = ("path", "coarse")
@@ -160,17 +164,31 @@ class PathStart:
         return Reached.of_path(out, record)
 
 
+#: The coarse path's mesh for fine meshes up to half as large (the automatic
+#: choice of :class:`CoarseStart`; issue 16's measurements at hmax 0.03).
+COARSE_HMAX = 0.1
+
+#: The coarsest mesh an automatic coarse path runs on: twice the mesh of the
+#: solve from hmax 0.05 to 0.1.  Not coarser: at 0.2 fewer than three
+#: elements span the half width, and the fold loads already move with the
+#: mesh by 0.02-0.05 in L (``fold_curve_remesh_hmax0.2.txt``).  Measured at
+#: hmax 0.1 from 0.2: see the module.
+COARSEST_HMAX = 0.2
+
+
 @dataclass(frozen=True)
 class CoarseStart:
-    """The load path on the mesh ``hmax``, carried to the mesh of the solve
+    """The load path on a coarse mesh, carried to the mesh of the solve
     by its located folds (see the module).
 
     Attributes
     ----------
-    hmax : float
-        Mesh size of the coarse path.
+    hmax : float or None
+        Mesh size of the coarse path; None (the default) chooses it from the
+        mesh of the solve (:meth:`coarse_mesh`): ``min_coarsening`` times as
+        coarse, at least :data:`COARSE_HMAX` and at most :data:`COARSEST_HMAX`.
     min_coarsening : float
-        The coarse path runs only where ``hmax`` is at least this many times
+        The coarse path runs only where its mesh is at least this many times
         the mesh size of the solve: a factorisation costs about the square
         of the unknowns' ratio of the two meshes in 2D-like fill (the sheet is
         thin), so closer meshes make the coarse path cost as much as the path
@@ -180,33 +198,46 @@ class CoarseStart:
 
     Examples
     --------
+    >>> CoarseStart().coarse_mesh(0.03), CoarseStart().coarse_mesh(0.1)
+    (0.1, 0.2)
+    >>> CoarseStart().usable_for(0.15)
+    'coarse_hmax 0.2 is less than 2 times coarser than hmax 0.15: the path on hmax costs about as much'
     >>> CoarseStart(hmax=0.1).name, CoarseStart(hmax=0.1).usable_for(0.03)
     ('coarse', '')
     """
 
-    hmax: float = 0.1
+    hmax: float | None = None
     min_coarsening: float = 2.0
     name: ClassVar[str] = "coarse"
 
     def __post_init__(self):
-        check_range("coarse hmax", self.hmax, 0, None, lo_open=True)
+        if self.hmax is not None:
+            check_range("coarse hmax", self.hmax, 0, None, lo_open=True)
         check_range("min_coarsening", self.min_coarsening, 1, None)
+
+    def coarse_mesh(self, hmax: float) -> float:
+        """The coarse path's mesh size for a solve on ``hmax``."""
+        if self.hmax is not None:
+            return float(self.hmax)
+        return float(min(COARSEST_HMAX, max(COARSE_HMAX, self.min_coarsening * float(hmax))))
 
     def usable_for(self, hmax: float) -> str:
         """Why the coarse path does not run for the mesh size ``hmax`` ("" if it does)."""
-        if self.hmax <= hmax:
-            return f"coarse_hmax {self.hmax:g} is not coarser than hmax {hmax:g}"
-        if self.hmax < self.min_coarsening * hmax:
-            return (f"coarse_hmax {self.hmax:g} is less than {self.min_coarsening:g} times "
+        coarse = self.coarse_mesh(hmax)
+        if coarse <= hmax:
+            return f"coarse_hmax {coarse:g} is not coarser than hmax {hmax:g}"
+        if coarse < self.min_coarsening * hmax * (1 - 1e-12):
+            return (f"coarse_hmax {coarse:g} is less than {self.min_coarsening:g} times "
                     f"coarser than hmax {hmax:g}: the path on hmax costs about as much")
         return ""
 
     def reach(self, job: Job) -> Reached:
         fine = job.problem
+        chmax = self.coarse_mesh(float(fine.sheet_mesh.hmax))
         why = self.usable_for(float(fine.sheet_mesh.hmax))
         if why:
-            return PathStart().reach(job, StartRecord(self.name, self.hmax, fallback=why))
-        cproblem = job.build(self.hmax)
+            return PathStart().reach(job, StartRecord(self.name, chmax, fallback=why))
+        cproblem = job.build(chmax)
         share = _coarse_share(cproblem.ndof, fine.ndof)
         clinear = make_linear_solver(job.solver)
         if getattr(clinear, "needs_layout", False):
@@ -226,7 +257,7 @@ class CoarseStart:
                              gravity=job.gravity)
 
         def record(fallback="", folds=()):
-            return StartRecord(self.name, self.hmax, cstats.factorizations,
+            return StartRecord(self.name, chmax, cstats.factorizations,
                                cstats.newton_iterations, fallback, tuple(folds))
 
         def fall_back(why, folds=()):
@@ -329,14 +360,17 @@ def _coarse_share(n_coarse: int, n_fine: int) -> float:
     return c / (c + f)
 
 
-def make_start(start, coarse_hmax: float = 0.1):
+def make_start(start, coarse_hmax: float | None = None):
     """The strategy of ``solve(start=..., coarse_hmax=...)``: a strategy object
-    as it is, or one of the names :data:`STARTS`.
+    as it is, or one of the names :data:`STARTS` (``coarse_hmax`` None: the
+    coarse mesh chosen from the solve's, :meth:`CoarseStart.coarse_mesh`).
 
     Examples
     --------
     >>> make_start("coarse", 0.12)
     CoarseStart(hmax=0.12, min_coarsening=2.0)
+    >>> make_start("coarse")
+    CoarseStart(hmax=None, min_coarsening=2.0)
     >>> make_start(PathStart())
     PathStart()
     """
@@ -345,7 +379,8 @@ def make_start(start, coarse_hmax: float = 0.1):
     if start == "path":
         return PathStart()
     if start == "coarse":
-        return CoarseStart(hmax=check_range("coarse_hmax", coarse_hmax, 0, None, lo_open=True))
+        return CoarseStart(hmax=None if coarse_hmax is None else
+                           check_range("coarse_hmax", coarse_hmax, 0, None, lo_open=True))
     raise ParameterError(f"start must be one of {', '.join(STARTS)} or a start strategy "
                          f"(PathStart, CoarseStart), got {start!r}")
 

@@ -41,6 +41,9 @@ def test_a_turning_point_of_the_load_is_located_and_confirmed_by_the_inertia():
 
 
 def test_a_steep_branch_without_a_turning_point_is_followed_to_the_end():
+    """STEEP's rate of the load along the branch falls to a minimum at u = 0
+    and rises again: the fold searched there is not found (none is), the
+    branch goes on."""
     b = ramp(STEEP, np.array([_steep_u(0.0)]), np.zeros(1), "lam", 1.0,
              rule=StepRule(initial=0.1, delta=0.02))
     assert b.completed and not b.folds
@@ -68,6 +71,35 @@ def test_a_fold_of_the_s_curve_is_not_jumped_over_by_a_long_first_step():
                  rule=StepRule(initial=initial, maximum=max(1.0, initial), delta=0.01))
         assert b.fold is not None, initial
         assert b.fold.value == pytest.approx(2 / (3 * np.sqrt(3)), abs=1e-9)
+
+
+def _thin_s(eps):
+    """lam = 1/2 - eps u + u^3/3: an S whose two folds, at u = -+sqrt(eps)
+    and lam = 1/2 +- (2/3) eps^(3/2), are a thin pair (0.0005 apart in lam at
+    eps 0.005, while the state jumps by 0.2 between its outer branches)."""
+    P = FunctionProblem(lambda u, p: 0.5 - eps * u + u**3 / 3 - p[0],
+                        lambda u, p: np.diag(u**2 - eps), ("lam",))
+    r = np.roots([1 / 3, 0, -eps, 0.5])
+    return P, np.array([float(r.real[np.argmin(np.abs(r.imag))])])
+
+
+def test_a_thin_s_shaped_fold_pair_crossed_within_one_step_is_located():
+    """Steps long against the S (nominal distance 0.4) cross both folds: the
+    parameter is monotone over the step's ends and the inertia the same at
+    both, so neither turns the ramp.  The rate of the load along the branch
+    has its minimum at the point landed on; the fold searched on the branch
+    from there (and from the point before) is the turning point the sheet
+    snaps at.  (Before the search the ramp completed here without a fold.)"""
+    for eps in (0.02, 0.005, 0.001):
+        P, u0 = _thin_s(eps)
+        b = ramp(P, u0, np.zeros(1), "lam", 1.0,
+                 rule=StepRule(initial=0.25, delta=0.4, maximum=1.0))
+        assert not b.completed and b.fold is not None, eps
+        assert b.fold.value == pytest.approx(0.5 + 2 / 3 * eps**1.5, abs=1e-10)
+        assert float(b.fold.u[0]) == pytest.approx(-np.sqrt(eps), abs=1e-5)
+        assert b.fold.crossing == (0, 1) and b.fold.side == -1
+        # the branch ends before the fold: no point of the other branch kept
+        assert all(float(pt.u[0]) < -np.sqrt(eps) for pt in b.points)
 
 
 def test_the_step_rule_grows_and_cuts_by_the_corrector_distance():

@@ -58,6 +58,30 @@ def test_coarse_start_finds_the_path_s_branch_with_fewer_fine_factorisations(pat
     assert summary["start_record"]["fallback"] == "" and summary["start_record"]["folds"] == []
 
 
+def test_a_thin_fold_pair_the_coarse_steps_crossed_is_found_and_snaps_on_the_fine_mesh():
+    """Near the cusp of the bistable range (L 0.985, b 0.84, a/R 5.71
+    gravity-first) the pop-up fold pair is thin: hmax 0.1 turns at 0.2618 of
+    the curvature ramp, and on hmax 0.2 the ramp's steps crossed the pair
+    whole (the load monotone over each step, the inertia the same at its
+    ends), so the coarse start lost the snap and the branch label with it.
+    The minimum of the load's rate along the coarse branch is where the fold
+    search on the branch finds it (at 0.2421 on hmax 0.2); carried to hmax
+    0.1 it is located at the fine path's own fold."""
+    sheet = Sheet(0.985, 0.84, 5.71)
+    full = solve(sheet, path="gravity-first", hmax=0.1, start="path")
+    fast = solve(sheet, path="gravity-first", hmax=0.1, start=CoarseStart(hmax=0.2))
+    assert fast.converged and fast.coarse_fallback == ""
+    assert [s.phase for s in full.snaps] == [s.phase for s in fast.snaps] == ["curvature"]
+    assert fast.snaps[0].load == pytest.approx(full.snaps[0].load, abs=1e-6)
+    assert fast.snaps[0].hmax == 0.1 and fast.snaps[0].negative_eigenvalues == (0, 1)
+    (fold,) = fast.start_record.folds
+    assert fold["snapped"] and fold["load"] == fast.snaps[0].load
+    assert abs(fold["coarse_load"] - fold["load"]) < 0.05     # hmax 0.2 against 0.1
+    assert fast.factorizations < full.factorizations / 2
+    assert fast.branch == full.branch
+    assert fast.deflection == pytest.approx(full.deflection, rel=1e-7)
+
+
 def test_no_coarser_mesh_runs_the_path():
     sheet = Sheet(length=0.8, curvature=2.0)
     full = solve(sheet, hmax=0.15, start="path")
@@ -65,10 +89,11 @@ def test_no_coarser_mesh_runs_the_path():
     assert "not coarser" in same.coarse_fallback
     assert same.deflection == full.deflection
     assert same.factorizations == full.factorizations and same.coarse_factorizations == 0
-    # the default start is the coarse one: on a mesh as coarse as its own it runs the path
+    # the default start is the coarse one: at hmax 0.15 its mesh would be the
+    # coarsest, 0.2, not twice as coarse, so it runs the path
     default = solve(sheet, hmax=0.15)
-    assert default.start == "coarse" and "not coarser" in default.coarse_fallback
-    assert default.deflection == full.deflection
+    assert default.start == "coarse" and "less than 2 times coarser" in default.coarse_fallback
+    assert default.coarse_hmax == 0.2 and default.deflection == full.deflection
 
 
 def test_the_coarse_mesh_runs_only_where_it_is_coarse_enough_to_pay():
@@ -77,7 +102,7 @@ def test_the_coarse_mesh_runs_only_where_it_is_coarse_enough_to_pay():
     record says why; with the rule relaxed the coarse start is used and
     reaches the same state."""
     sheet = Sheet(length=0.5, curvature=1.0)
-    near = solve(sheet, hmax=0.08)
+    near = solve(sheet, hmax=0.08, coarse_hmax=0.1)
     assert near.converged and near.coarse_factorizations == 0
     assert "less than 2 times coarser" in near.coarse_fallback
     used = solve(sheet, hmax=0.08, start=CoarseStart(hmax=0.1, **NEAR))
@@ -184,9 +209,27 @@ def test_bad_start_arguments(kwargs, name):
         CoarseStart(min_coarsening=0.5)
 
 
+def test_the_default_coarse_mesh_is_twice_the_solve_s_between_0_1_and_0_2():
+    auto = CoarseStart()
+    assert [auto.coarse_mesh(h) for h in (0.02, 0.03, 0.05, 0.06, 0.08, 0.1, 0.15)] == \
+        pytest.approx([0.1, 0.1, 0.1, 0.12, 0.16, 0.2, 0.2])
+    assert [auto.usable_for(h) == "" for h in (0.03, 0.06, 0.1, 0.12, 0.15)] == \
+        [True, True, True, False, False]
+    assert CoarseStart(hmax=0.25).coarse_mesh(0.1) == 0.25
+    # at hmax 0.08 the default coarse path runs on 0.16 and reaches the state
+    # of the path on 0.08
+    sheet = Sheet(length=0.5, curvature=1.0)
+    r = solve(sheet, hmax=0.08)
+    assert r.coarse_hmax == pytest.approx(0.16) and r.coarse_fallback == ""
+    assert r.coarse_factorizations > 0 and r.factorizations <= 6
+    assert r.deflection == pytest.approx(solve(sheet, hmax=0.08, start="path").deflection,
+                                         rel=1e-7)
+
+
 def test_make_start_takes_names_and_strategies():
     assert make_start("path") == PathStart()
     assert make_start("coarse", 0.2) == CoarseStart(hmax=0.2)
+    assert make_start("coarse") == CoarseStart() and CoarseStart().hmax is None
     s = CoarseStart(hmax=0.3, min_coarsening=1.5)
     assert make_start(s) is s
 

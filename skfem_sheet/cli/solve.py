@@ -24,6 +24,7 @@ from ..linalg import SOLVERS
 from ..params import ParameterError, Sheet, read_planform_csv
 from ..plot import plot_sheet
 from ..solve import STARTS, CoarseStart, solve
+from ..starts import COARSE_HMAX, COARSEST_HMAX
 from ..states import sheet_line, solve_both, with_path
 from .ranges import parse_range
 
@@ -101,8 +102,9 @@ def add_solve_args(p, hmax=0.03) -> None:
                         "the mesh --hmax (the default with --series, which then holds every "
                         "load step)")
     p.add_argument("--coarse-hmax", type=float, default=CoarseStart.hmax,
-                   help=f"mesh size of the coarse path of --start coarse (default "
-                        f"{CoarseStart.hmax}, used where it is at least "
+                   help=f"mesh size of the coarse path of --start coarse (default: "
+                        f"{CoarseStart.min_coarsening:g} times --hmax, at least {COARSE_HMAX:g} "
+                        f"and at most {COARSEST_HMAX:g}; used where it is at least "
                         f"{CoarseStart.min_coarsening:g} times --hmax; closer, the path runs "
                         f"on --hmax)")
     p.add_argument("--gravity", type=float, default=1.0,

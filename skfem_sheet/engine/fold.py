@@ -695,7 +695,8 @@ def equilibrium_on_section(problem, u, p, param, section, *,
 
 
 def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERANCES,
-                   ptol: float = 1e-9, max_iterations: int = 12, check_inertia: bool = False):
+                   ptol: float = 1e-9, max_iterations: int = 12, check_inertia: bool = False,
+                   reach: float = np.inf):
     """The fold near the equilibrium ``(u, p)`` located on the branch itself.
 
     The branch near a fold is parametrised by the section coordinate
@@ -744,6 +745,11 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     max_iterations : int
     check_inertia : bool
         As in :func:`locate_fold`.
+    reach : float
+        Give up as soon as the fold is predicted further than this from the
+        first section (in the section coordinate ``c``, i.e. along the unit
+        ``v``): to ask whether a fold lies within a given stretch of the
+        branch, at the cost of one section solve where none does.
 
     Returns
     -------
@@ -819,7 +825,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             dc *= 0.5
         return None
 
-    pt = on_section(np.array(u, dtype=float), p, counter.inner(v, u))
+    c_first = counter.inner(v, u)
+    pt = on_section(np.array(u, dtype=float), p, c_first)
     if pt is None:
         return failed("the equilibrium on the first section did not converge")
     scale = max(1.0, abs(float(p[i])))
@@ -828,6 +835,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
         if not (g2 != 0 and np.isfinite(g2)):
             return failed("the branch has no curvature in the parameter here (g' = 0)", pt[0])
         dc = -g / g2
+        if abs(counter.inner(v, pt[0].u) + dc - c_first) > reach:
+            return failed(f"the fold is predicted further than {reach:.3g} along v", pt[0])
         log.debug("fold_on_branch: p %.10g, dp/dc %.3g, d2p/dc2 %.3g: the fold %.3g further "
                   "in p (%d factorisations so far)", pt[0].p[i], g, g2, -0.5 * g * dc,
                   (counter.stats() - start).factorizations)

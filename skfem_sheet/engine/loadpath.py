@@ -38,6 +38,18 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   jump onto another branch, or a bifurcation, which the step shrinks to
   expose).  A steep branch with no turning point is followed, whatever its
   slope.
+- **folds within a step**: a step can cross a sharp fold, or a thin S-shaped
+  fold pair, whole (the parameter monotone over its ends, the inertia the
+  same at both: measured on the sheets near the cusp of their bistable
+  range).  Two rules from the parabola the parameter makes in the arclength
+  near a fold: the next step is at most three times the distance to where
+  the line of the falling rate ``|t_p|`` vanishes (:func:`_turn_bound`), so
+  that it ends past a turn ahead with the parameter turned; and where the
+  rate has a minimum (it fell to a point and rises after it: the branch came
+  nearest to turning there), the fold is searched on the branch within the
+  steps into and out of that point, one section solve each where there is
+  none, and ends the branch where the load turns back with one eigenvalue
+  crossing.
 
 The driver ends at the fold: what happens there (a snap onto another branch)
 is the caller's.
@@ -136,6 +148,48 @@ def _arclength(counter, u, p, u_pred, p_pred, i, tol):
                                             start=u_pred))
 
 
+def _turn_bound(points, rate_at):
+    """The longest next step that keeps a turning point ahead detectable.
+
+    Near a fold the parameter is a parabola in the arclength and the rate
+    ``|t_p|`` at which it moves is linear in it, vanishing at the turn.
+    Where the secants' rates fell over the last two steps, the line through
+    the last secant's rate (the parabola's slope at the secant's midpoint)
+    and the rate of the tangent at the last point (``rate_at()``, from the
+    factorisation its correction ended with) vanishes ``a`` beyond the last
+    point, and a step of ``3 a`` ends past the turn with the parameter below
+    the last point's (``2 a`` ends level with it), which :func:`ramp` detects
+    and locates.  A longer step can cross a sharp fold, or a thin S-shaped
+    fold pair, turning (and turning back) within the step with no sign of it
+    at its ends (measured at hmax 0.1: L 0.985, b 0.840, a/R 5.71 and L 1.15,
+    b 0.7, a/R 4.6, gravity-first, from points 3e-4 and 1e-5 of the phase
+    before their pop-up folds, where the secants' rates were still 0.11 and
+    0.16).  None where the rates did not fall, or the tangent's rate is not
+    below the secant's (no turn ahead by this line).
+    """
+    if len(points) < 2:
+        return None
+    b, c = points[-2], points[-1]
+    r0, r1 = abs(float(b.tangent_p)), abs(float(c.tangent_p))
+    if not r1 < r0:
+        return None
+    r = rate_at()
+    if r is None or not r < r1:
+        return None
+    half = 0.5 * (c.s - b.s)  # from the secant's midpoint to the point
+    return 3.0 * r * half / (r1 - r)
+
+
+def _tangent_rate(counter, res, i):
+    """``|t_p|`` of the unit tangent at a corrected point ``res``, from the
+    factorisation its correction ended with (one back-substitution), or None."""
+    try:
+        tu = res.factorization.solve(-counter.dresidual(res.u, res.p, i))
+        return abs(float(unit_tangent(counter, tu, 1.0)[1]))
+    except EngineFailure:
+        return None
+
+
 def _hessian_inertia(counter, u, p):
     """Negative eigenvalues of the Hessian at ``(u, p)`` (one factorisation)."""
     try:
@@ -228,7 +282,9 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
     start : (u, factorization), optional
         ``(u0, p0)`` is already an equilibrium, with this factorised tangent.
     on_step : callable(point, result), optional
-        Called with every accepted point after the first.
+        Called with every accepted point after the first (also with a point
+        that a fold found later within the step into it withdraws from
+        ``points``: it lies past that fold).
     progress : callable(value), optional
     max_points : int
     check_inertia : bool
@@ -339,6 +395,50 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             return f"the inertia changed from {k} to {k_new} without a turning point", None
         return "", (du / chord, dq / chord, chord, k_new)  # the secant
 
+    def hidden_fold(res, data):
+        """A fold that the ends of the steps do not show: where the rate
+        ``|t_p|`` of the load along the branch has a minimum at the last
+        point (it fell to it and rises to ``res``), the branch came nearest to
+        turning there, and a sharp fold -- or a thin S-shaped fold pair,
+        turning and turning back -- can lie within the step into it or the
+        step out of it.  Each is searched on the branch from its start
+        (:func:`~skfem_sheet.engine.fold.fold_on_branch` along the step's
+        chord, given up where the fold is predicted beyond the chord: one
+        section solve where there is none); a fold found is the branch's
+        turning point if the load turns back there (solutions behind it),
+        ahead of the step's start, and one eigenvalue crosses zero there.
+        Returns ``(fold, in_the_step_into_the_minimum)`` or None (the branch
+        only steepened)."""
+        if len(points) < 2:
+            return None
+        rates = [abs(float(points[-2].tangent_p)), abs(float(points[-1].tangent_p)),
+                 abs(float(data[1]))]
+        if not (rates[1] < rates[0] and rates[1] < rates[2]):
+            return None
+        for into, (a, b_u) in ((True, (points[-2], points[-1].u)),
+                               (False, (points[-1], res.u))):
+            v = b_u - a.u
+            n = float(np.sqrt(counter.inner(v, v)))
+            if not n > 0:
+                continue
+            try:
+                fold, _ = fold_on_branch(counter, a.u, a.p, i, v, tol=end_tol, ptol=fold_tol,
+                                         check_inertia=True, reach=n)
+            except EngineFailure:
+                fold = None
+            log.debug("rate minimum at %.6g, the step %s it: fold %s", points[-1].p[i],
+                      "into" if into else "out of",
+                      None if fold is None else (fold.value, fold.side, fold.crossing))
+            if fold is None or fold.crossing is None or fold.side != -direction:
+                continue
+            if (fold.value - a.p[i]) * direction < 0:
+                continue
+            lo, hi = sorted(fold.crossing)
+            if hi - lo != 1 or (k is not None and lo != k):
+                continue
+            return replace(fold, crossing=(lo, hi)), into
+        return None
+
     def accept(res, data, distance):
         nonlocal t, k
         t_u, t_p, chord, k_new = data
@@ -400,6 +500,14 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
                     return finish(reason=f"the parameter turns after {points[-1].p[i]:.6g}, "
                                   f"but the fold system did not converge")
                 return finish(reason=f"fold at {data.value:.10g}", folds=(data,))
+            if not what:
+                hidden = hidden_fold(item, data)
+                if hidden is not None:
+                    fold, into = hidden
+                    if into:  # the last point lies past the fold: not on this branch
+                        points.pop()
+                    return finish(reason=f"fold at {fold.value:.10g} (within a step, at the "
+                                  f"minimum of the load's rate)", folds=(fold,))
             why = what or accept(item, data, dists.get(id(item), dist))
             if why:
                 break
@@ -417,4 +525,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         h_next = rule.next_step(h, dist)
         if retried or queue[-1].iterations > tol.max_iterations // 2:
             h_next = min(h, h_next)
+        bound = _turn_bound(points, lambda res=queue[-1]: _tangent_rate(counter, res, i))
+        if bound is not None:
+            h_next = max(min(h_next, bound), rule.minimum)
         h, retried, natural_ok = h_next, False, True

@@ -26,7 +26,11 @@ is ``"coarse"`` by default, so a point at the defaults has ``start`` in its
 key) after normalisation: numbers are rounded to 10
 significant digits (and ``-0.0`` is ``0.0``, ``2.0`` layers is ``2``), so
 ``1.3``, ``1.30000000001`` and ``np.arange(...)``'s ``1.3000000000000003`` are
-the same point.  The rounded values are the ones solved and stored in the
+the same point.  ``coarse_hmax`` enters the key (and the table) as the coarse
+mesh the point is solved with: ``solve``'s default, None, is the mesh the
+coarse start chooses for the point's ``hmax`` (0.1 up to hmax 0.05, so those
+keys are the ones they were when 0.1 was the default), and a
+``start="path"`` point has the key default.  The rounded values are the ones solved and stored in the
 table.  A solve option at its key default is left out of the key, so points
 from before it could be swept keep their keys, and a journal line without it
 is a row solved with it at that value (an old row without ``start`` is a
@@ -104,7 +108,7 @@ from ..continuation import PATHS
 from ..linalg import SOLVERS, available_solvers
 from ..mesh import estimate_dofs
 from ..params import ParameterError, Sheet
-from ..solve import MAX_DOFS, STARTS, Result, solve
+from ..solve import MAX_DOFS, STARTS, CoarseStart, Result, solve
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
@@ -247,9 +251,21 @@ def point_key(point) -> str:
     False
     """
     p = {**OPTIONS, **normalize_point(point)}
+    p["coarse_hmax"] = _coarse_mesh(p)
     return hash_key([[k, key_value(p[k])] for k in PARAMETERS]
                     + [[k, key_value(p[k])] for k in OPTIONS
                        if not _at_key_default(k, p[k])])
+
+
+def _coarse_mesh(p) -> float:
+    """The coarse mesh a normalised point is solved with: ``coarse_hmax``, or
+    (None, ``solve``'s default) the one the coarse start chooses for its
+    ``hmax`` (:meth:`~skfem_sheet.starts.CoarseStart.coarse_mesh`: 0.1 for
+    hmax up to 0.05, the value that was the default); a point on the path
+    (``start="path"``) has none, and its key the key default."""
+    if p["start"] != "coarse":
+        return _KEY_DEFAULTS["coarse_hmax"]
+    return normalize_number(CoarseStart(hmax=p["coarse_hmax"]).coarse_mesh(p["hmax"]))
 
 
 def _at_key_default(name, value) -> bool:
@@ -334,6 +350,7 @@ def _record(point, key):
     rec = dict(point)
     for name, default in OPTIONS.items():
         rec.setdefault(name, default)
+    rec["coarse_hmax"] = _coarse_mesh(rec)
     rec.update({name: math.nan if kind == "float" else False if kind == "bool" else None
                 for name, kind in _OUTPUTS.items()})
     rec.update(message="", version=__version__, key=key, error="")
