@@ -180,12 +180,18 @@ def _turn_bound(points, rate_at):
     return 3.0 * r * half / (r1 - r)
 
 
+def _tangent(counter, res, i):
+    """The unit tangent ``(t_u, t_p)`` at a corrected point ``res``, from the
+    factorisation its correction ended with (one back-substitution); raises
+    :class:`EngineFailure`."""
+    return unit_tangent(counter, res.factorization.solve(-counter.dresidual(res.u, res.p, i)),
+                        1.0)
+
+
 def _tangent_rate(counter, res, i):
-    """``|t_p|`` of the unit tangent at a corrected point ``res``, from the
-    factorisation its correction ended with (one back-substitution), or None."""
+    """``|t_p|`` of :func:`_tangent`, or None where it fails."""
     try:
-        tu = res.factorization.solve(-counter.dresidual(res.u, res.p, i))
-        return abs(float(unit_tangent(counter, tu, 1.0)[1]))
+        return abs(float(_tangent(counter, res, i)[1]))
     except EngineFailure:
         return None
 
@@ -328,8 +334,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
     if not res.converged:
         return finish(reason=f"the first point did not converge: {res.reason}")
     try:
-        t = unit_tangent(counter, res.factorization.solve(-counter.dresidual(res.u, res.p, i)),
-                         1.0)
+        t = _tangent(counter, res, i)
     except EngineFailure as err:
         return finish(reason=f"tangent at the first point: {err}")
     if t[1] * direction < 0:
