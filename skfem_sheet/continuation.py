@@ -46,7 +46,7 @@ from .params import ParameterError, check_range
 from .sheet_engine import LoadPhase, SheetLoadProblem
 
 __all__ = ["PATHS", "StepOptions", "Snap", "Fold", "PathOutcome", "load_phases",
-           "follow_path", "snap_from_fold", "newton_tolerances", "end_state_verdict",
+           "follow_path", "snap_from_fold", "settle", "newton_tolerances", "end_state_verdict",
            "elastica_state", "cylinder_state"]
 
 PATHS = ("curvature-first", "gravity-first")
@@ -263,6 +263,30 @@ def _negatives(problem, solver):
     return stability(problem, solver)[1]
 
 
+def settle(problem, w, g, solver, newton_options: NewtonOptions, step_options: StepOptions,
+           stats: Stats):
+    """Settle ``w`` onto a stable equilibrium at gravity ``g``: pseudo-transient
+    continuation (:func:`~skfem_sheet.newton.pseudo_transient`, drawn to
+    stable states) to the load path's intermediate tolerance, then Newton to
+    ``newton_options``.  Where a sheet snaps (from a state moved off its
+    fold) and where Newton from a state carried from another mesh leaves its
+    basin (:class:`~skfem_sheet.starts.CoarseStart`).
+
+    Returns
+    -------
+    (NewtonResult, NewtonResult or None)
+        The pseudo-transient's outcome and, if it settled, Newton's.
+    """
+    scale = max(1.0, problem.sheet.length)  # displacements grow with the length
+    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol(scale))
+    # (the pseudo-transient's default trust radius, 0.1, per unit of the sheet's size)
+    pt = pseudo_transient(problem, w, g, solver, loose, stats, radius=0.1 * scale,
+                          negatives=_negatives)
+    if not pt.converged:
+        return pt, None
+    return pt, newton(problem, pt.w, g, solver, newton_options, stats)
+
+
 def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *,
                    newton_options: NewtonOptions, step_options: StepOptions,
                    negative_eigenvalues=(None, None)):
@@ -299,13 +323,9 @@ def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *
                  for s in (1.0, -1.0)]
         sign = 1.0 if trial[0] <= trial[1] else -1.0
     w0 = sheet.full(fold.u + sign * eps * v, (kappa, g))
-    loose = replace(newton_options, rtol=1.0, utol=step_options.intermediate_utol(scale))
-    # (the pseudo-transient's default trust radius, 0.1, per unit of the sheet's size)
-    pt = pseudo_transient(problem, w0, g, solver, loose, stats, radius=0.1 * scale,
-                          negatives=_negatives)
+    pt, res = settle(problem, w0, g, solver, newton_options, step_options, stats)
     if not pt.converged:
         return None, f"the snap from the fold did not settle: {pt.reason}", pt.iterations
-    res = newton(problem, pt.w, g, solver, newton_options, stats)
     if not res.converged:
         return None, f"the landed state did not converge: {res.reason}", pt.iterations
     stable, k = end_state_verdict(problem, solver, res.w, stats)

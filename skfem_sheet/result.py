@@ -38,10 +38,12 @@ class StartRecord:
         ``"path"`` (the load path on the mesh ``hmax``) or ``"coarse"`` (the
         load path on a coarse mesh, finished on the mesh ``hmax``).
     coarse_hmax : float
-        Mesh size of the coarse path (``nan`` for ``"path"``).
+        Mesh size of the coarse path (``nan`` for ``"path"``): the coarse mesh
+        whose end state and folds are carried to the mesh ``hmax``.
     coarse_factorizations, coarse_newton_iterations : int
-        Work of the coarse path (0 without one); the Result's
-        ``factorizations`` and ``newton_iterations`` count the mesh ``hmax``.
+        Work on the coarse meshes (0 without one; ``levels`` included); the
+        Result's ``factorizations`` and ``newton_iterations`` count the mesh
+        ``hmax``.
     fallback : str
         Why the coarse path's outcome was not used and the load path ran on
         the mesh ``hmax`` instead ("" if it was used, or not asked for).
@@ -50,6 +52,12 @@ class StartRecord:
         and located there: ``{"phase", "coarse_load", "load", "snapped"}``
         (``load`` the fold load on the mesh ``hmax``; ``snapped`` whether it
         lies inside its phase, so that the sheet snaps there too).
+    levels : tuple
+        The coarser meshes by which the coarse path was itself reached
+        (:class:`~skfem_sheet.starts.CoarseStart`: at hmax 0.03 the path runs
+        on 0.2 and is carried to 0.1), nearest first: ``{"hmax",
+        "factorizations", "newton_iterations", "fallback"}`` each (``fallback``
+        non-empty: the path ran on the level above instead).
     """
 
     name: str = "path"
@@ -58,12 +66,14 @@ class StartRecord:
     coarse_newton_iterations: int = 0
     fallback: str = ""
     folds: tuple = ()
+    levels: tuple = ()
 
     def to_json(self) -> dict:
         return {"name": self.name, "coarse_hmax": self.coarse_hmax,
                 "coarse_factorizations": self.coarse_factorizations,
                 "coarse_newton_iterations": self.coarse_newton_iterations,
-                "fallback": self.fallback, "folds": [dict(f) for f in self.folds]}
+                "fallback": self.fallback, "folds": [dict(f) for f in self.folds],
+                "levels": [dict(level) for level in self.levels]}
 
 
 @dataclass(frozen=True)

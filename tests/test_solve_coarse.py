@@ -82,6 +82,37 @@ def test_a_thin_fold_pair_the_coarse_steps_crossed_is_found_and_snaps_on_the_fin
     assert fast.deflection == pytest.approx(full.deflection, rel=1e-7)
 
 
+@pytest.mark.parametrize("path", ["gravity-first", "curvature-first"])
+def test_the_automatic_coarse_path_is_itself_reached_from_a_coarser_mesh(path):
+    """At hmax 0.05 the automatic coarse mesh is 0.1, which has one of its own
+    (0.2): the path runs on 0.2, its folds and end state are carried to 0.1
+    and from there to 0.05, by the same rule at each.  The rectangle at a/R 6
+    gravity-first pops up (a fold inside the curvature ramp); curvature-first
+    it has none.  Against the single coarse mesh 0.1: the same fold, located
+    on 0.05 to the fold tolerance, the same end state, and fewer
+    factorisations on 0.1."""
+    sheet = Sheet(1.3, 1.0, 6.0)
+    one = solve(sheet, path=path, hmax=0.05, start=CoarseStart(hmax=0.1))
+    two = solve(sheet, path=path, hmax=0.05)
+    assert one.converged and two.converged and two.coarse_fallback == ""
+    assert one.start_record.levels == ()
+    (level,) = two.start_record.levels
+    assert level["hmax"] == 0.2 and level["fallback"] == "" and level["factorizations"] > 0
+    assert two.coarse_hmax == 0.1
+    assert two.coarse_factorizations > level["factorizations"]
+    # the work on 0.1 itself (all but the 0.2 level's) is a fraction of its path's
+    assert two.coarse_factorizations - level["factorizations"] < one.coarse_factorizations / 3
+    assert [s.phase for s in two.snaps] == [s.phase for s in one.snaps]
+    assert len(two.snaps) == (1 if path == "gravity-first" else 0)
+    for a, b in zip(one.snaps, two.snaps):
+        assert a.hmax == b.hmax == 0.05 and b.negative_eigenvalues == (0, 1)
+        assert b.load == pytest.approx(a.load, abs=2 * StepOptions().fold_tolerance)
+    assert two.branch == one.branch == "curvature-dominated"
+    assert two.deflection == pytest.approx(one.deflection, rel=1e-7)
+    assert two.stable is True
+    assert two.summary()["start_record"]["levels"][0]["hmax"] == 0.2
+
+
 def test_no_coarser_mesh_runs_the_path():
     sheet = Sheet(length=0.8, curvature=2.0)
     full = solve(sheet, hmax=0.15, start="path")
@@ -168,8 +199,9 @@ def test_a_coarse_fold_that_the_fine_mesh_has_beyond_full_load_is_not_snapped_fr
 
 
 def test_a_failed_fine_finish_falls_back_to_the_path(monkeypatch):
-    # a transferred state that Newton cannot finish must not be reported: the
-    # path runs on the fine mesh, and the failed attempt's work is counted
+    # a transferred state that Newton cannot finish (nor the settle after it)
+    # must not be reported: the path runs on the fine mesh, and the failed
+    # attempt's work is counted
     sheet = Sheet(length=0.8, curvature=2.0)
     full = solve(sheet, hmax=0.1, start="path")
     real, calls = starts_module.newton, []
@@ -179,11 +211,75 @@ def test_a_failed_fine_finish_falls_back_to_the_path(monkeypatch):
         return NewtonResult(w, False, 1, "max iterations")
 
     monkeypatch.setattr(starts_module, "newton", fails)
+    # (nor can the settle that follows a failed Newton)
+    monkeypatch.setattr(starts_module, "settle", lambda problem, w, *args: (
+        NewtonResult(w, False, 1, "diverging"), None))
     back = solve(sheet, hmax=0.1, start=CoarseStart(hmax=0.2, **NEAR))
     monkeypatch.setattr(starts_module, "newton", real)
     assert calls and back.coarse_fallback.startswith("fine Newton from the coarse end state failed")
     assert back.converged and back.deflection == pytest.approx(full.deflection, rel=1e-10)
     assert back.coarse_factorizations > 0
+
+
+def test_a_carried_state_outside_newton_s_basin_is_settled_onto_the_path_s_state(monkeypatch):
+    """Newton from the carried end state fails (measured on long sheets from
+    hmax 0.2 to 0.1; here forced): the pseudo-transient settles it, and the
+    end state is the path's, accepted by the same rule, without falling back."""
+    sheet = Sheet(length=0.8, curvature=2.0)
+    full = solve(sheet, hmax=0.1, start="path")
+    real, calls = starts_module.newton, []
+
+    def fails_once(problem, w, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            return NewtonResult(w, False, 1, "diverging")
+        return real(problem, w, *args, **kwargs)
+
+    monkeypatch.setattr(starts_module, "newton", fails_once)
+    fast = solve(sheet, hmax=0.1, start=CoarseStart(hmax=0.2, **NEAR))
+    assert len(calls) == 1     # the settle's own Newton is the continuation module's
+    assert fast.converged and fast.coarse_fallback == "" and fast.stable is True
+    assert fast.deflection == pytest.approx(full.deflection, rel=1e-7)
+    # pseudo-transient steps and Newton on the mesh hmax, far fewer than the path's
+    assert fast.steps[-1][0] == "fine" and fast.steps[-1][2] >= 2
+    assert fast.factorizations < full.factorizations
+
+
+def test_a_carried_snap_whose_end_state_newton_cannot_finish_falls_back(popping, monkeypatch):
+    """With a snap carried, a failed Newton at the end is not settled: the
+    distance rule would check the end state only, not that the fine sheet met
+    its fold on the coarse path's branch (measured on the regression set's
+    long thin sheet: the path's end state to 3e-13, the fold on another
+    branch).  The path runs on the fine mesh and its snap is reported."""
+    full, _ = popping
+    real, calls, settles = starts_module.newton, [], []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    args = (Sheet(1.3, 1.0, 6.0),)
+    kwargs = dict(path="gravity-first", hmax=0.12, start=CoarseStart(hmax=0.25, **NEAR))
+    monkeypatch.setattr(starts_module, "newton", counted)
+    solve(*args, **kwargs)
+    last = len(calls)       # the end state's Newton is the start's last call
+
+    def fails_last(problem, w, *rest, **options):
+        calls.append(1)
+        if len(calls) == 2 * last:
+            return NewtonResult(w, False, 1, "diverging")
+        return real(problem, w, *rest, **options)
+
+    monkeypatch.setattr(starts_module, "newton", fails_last)
+    monkeypatch.setattr(starts_module, "settle", lambda *a: settles.append(1))
+    back = solve(*args, **kwargs)
+    assert len(calls) >= 2 * last and settles == []
+    assert back.coarse_fallback.startswith("fine Newton from the coarse end state failed "
+                                           "after a carried snap")
+    # the path on the same mesh again (to round-off: measured 4e-14 in the load)
+    assert [s.phase for s in back.snaps] == [s.phase for s in full.snaps] == ["curvature"]
+    assert back.snaps[0].load == pytest.approx(full.snaps[0].load, rel=1e-9)
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-9)
 
 
 def test_a_fine_finish_that_leaves_the_coarse_branch_falls_back(monkeypatch):
