@@ -262,7 +262,8 @@ class CoarseStart:
         located to ``coarse_fold_tolerance`` on every coarse mesh.  ``finish``
         names the step that finishes the end state on this mesh."""
         fine = job.problem
-        hmax = float(fine.sheet_mesh.hmax)
+        # the mesh's edge length: a nested refinement's base hmax halved refine times
+        hmax = float(fine.sheet_mesh.hmax) / 2 ** int(fine.sheet_mesh.refine)
         chmax = self.coarse_mesh(hmax)
         why = self.usable_for(hmax)
         if why:

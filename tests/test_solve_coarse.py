@@ -337,3 +337,16 @@ def test_flat_rectangle_from_a_coarse_start_matches_heavy_elastica_at_paper_reso
     r = solve(Sheet(length=1.0), hmax=0.03, start="coarse")
     assert r.coarse_fallback == "" and r.factorizations <= 10
     assert r.deflection == pytest.approx(heavy_elastica(1.0), rel=5e-3)
+
+
+def test_a_nested_refinement_is_coarsened_by_its_edge_length_not_its_base_mesh():
+    """A mesh refined ``k`` times has edges ``hmax / 2**k``: the coarse start
+    chooses its coarse mesh from that (base 0.2 refined once: edges 0.1, the
+    coarse path on 0.2), where by the base size it would find no coarser mesh
+    and run the path on the refined mesh; the same equilibrium either way."""
+    sheet = Sheet(length=0.6, curvature=2.0)
+    path = solve(sheet, hmax=0.2, refine=1, start="path")
+    fast = solve(sheet, hmax=0.2, refine=1)
+    assert fast.coarse_fallback == "" and fast.coarse_hmax == 0.2
+    assert fast.coarse_factorizations > 0 and fast.factorizations < path.factorizations
+    assert fast.deflection == pytest.approx(path.deflection, rel=1e-7)
