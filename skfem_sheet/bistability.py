@@ -43,18 +43,22 @@ Functions
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from tqdm.auto import tqdm
 
 from .analyses.stability import stability
 from .analyses.transfer import transfer
+from .continuation import StepOptions
 from .engine import EngineFailure, Tolerances, arclength, correct, natural
 from .engine.protocol import Counting
+from .mesh import sheet_mesh
 from .newton import NewtonOptions, Stats
 from .params import ParameterError, Sheet, check_range
+from .problem import SheetProblem
 from .sheet_shape import REMESH_STRETCH, SheetShapeProblem
+from .starts import CoarseStart, Job
 from .version import __version__
 
 __all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
@@ -203,7 +207,7 @@ def _check_common(sheet, hmax, step, tol):
 def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", hmax: float = 0.06,
                   layers=None, solver: str = "auto", symmetric: bool = True, step: float = 0.1,
                   tol: float = 0.005, jump: float = 0.1, progress=None,
-                  on_point=None) -> Branch:
+                  on_point=None, start=None) -> Branch:
     """Follow the branch selected by ``path`` at ``sheet.length`` to ``stop``.
 
     Natural continuation in L at full load: each step is predicted with
@@ -229,6 +233,12 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     on_point : callable(problem, w, length) or None
         Called with the state of each point of the branch (e.g.
         ``skfem_sheet.io.Series().on_point``, then ``Branch.write_series``).
+    start : start strategy, optional
+        How the sheet at the start is solved: None, the load path on this
+        mesh; or one of :func:`~skfem_sheet.solve.solve`'s strategies, e.g.
+        :class:`~skfem_sheet.starts.CoarseStart` (the load path on a coarse
+        mesh, carried here: a few factorisations on a fine mesh instead of the
+        whole path).
 
     Returns
     -------
@@ -242,7 +252,7 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     """
     return _follow("L", sheet, stop, path=path, hmax=hmax, layers=layers,
                    solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
-                   progress=progress, on_point=on_point)
+                   progress=progress, on_point=on_point, start=start)
 
 
 def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", hmax: float = 0.06,
@@ -275,7 +285,7 @@ _STOP_RANGE = {"L": dict(lo=0.05, hi=20.0), "a/R": dict(lo=0.0, hi=2 * np.pi, hi
 
 
 def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
-            progress, on_point=None):
+            progress, on_point=None, start=None, record=None, guide=None, twin=None):
     """Natural continuation in ``name`` ("L" or "a/R") with fold bisection
     (see :func:`follow_length`), on the engine's driver
     :func:`skfem_sheet.engine.natural`: predictor ``dw/dp`` with the last
@@ -283,7 +293,19 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
     Newton fails, the equilibrium is unstable or the deflection jumps,
     halved down to the bracket ``2 tol``; in L the mesh is remeshed (and the
     state transferred) before a step beyond the stretch limit.  The arguments
-    are checked here (``stop`` against :data:`_STOP_RANGE` of ``name``)."""
+    are checked here (``stop`` against :data:`_STOP_RANGE` of ``name``).
+
+    ``start``: how the first point (and a remeshed state that Newton cannot
+    finish) is reached (:func:`_along_path`).
+    ``record``: a list to append each point's :class:`_GuidePoint` to (the
+    branch as the guide of a finer one).  ``guide``: the points so recorded
+    of the same branch on a coarser mesh, whose second-order part corrects
+    each step's prediction (:class:`_Guide`; in L only).  ``twin``:
+    ``(problem, w)``, an equilibrium of the same sheet at the start on
+    another mesh (the end of the continuation the other way): if Newton from
+    it, carried here, lands on the start state, both continuations trace one
+    branch, and a :class:`_SameBranch` (the work of the start and the check)
+    is returned instead of tracing it again."""
     _check_common(sheet, hmax, step, tol)
     stop = check_range("stop", stop, **_STOP_RANGE[name])
     t0 = time.perf_counter()
@@ -291,10 +313,12 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
     P = _branch_problem(sheet, name, hmax, layers, solver, symmetric)
     counter = Counting(P)
     p0 = np.array([sheet.length if name == "L" else sheet.curvature])
-    out = P.along_path(p0, path, stats)
+    out = _along_path(P, p0, path, stats, start)
     if not out.converged:
         raise ParameterError(f"the starting sheet (length {sheet.length:g}, a/R "
                              f"{sheet.curvature:g}) could not be solved along {path}: {out.reason}")
+    if twin is not None and not out.snaps and _same_state(P, counter, p0, out.w, *twin):
+        return _SameBranch(stats.newton_iterations + counter.stats().factorizations)
     guard = 0.25 * max(1.0, sheet.length)
     points, accepted = [], {}
 
@@ -319,11 +343,15 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
         points.append(BranchPoint(float(pt.p[0]), d, st, k, its))
         if on_point is not None:
             on_point(P.problem(pt.p), P.full(pt.u, pt.p), float(pt.p[0]))
+        if record is not None:
+            rate = np.zeros(P.base.ndof)
+            rate[P.free] = res.factorization.solve(-counter.dresidual(pt.u, pt.p, 0))
+            record.append(_GuidePoint(float(pt.p[0]), P.base, P.full(pt.u, pt.p), rate))
 
     def before_step(u, p, value, fact):
         if name != "L" or not P.needs_remesh([value]):
             return None
-        moved = _remeshed(P, counter, u, p, path, stats)
+        moved = _remeshed(P, counter, u, p, path, stats, start)
         d_here = P.deflection(moved[0], p) if moved is not None else np.nan
         if not abs(d_here - points[-1].deflection) <= jump:
             raise EngineFailure(
@@ -336,7 +364,8 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                 tol=_tolerances(guard), locate=False, inertia_change=False, grow_after=None,
                 check=check, before_step=before_step, on_step=on_step, keep_states=False,
                 linearization=_chord_linearization, progress=progress,
-                start=(out.w[P.free], P.held(out.w[P.free], p0)))
+                start=(out.w[P.free], P.held(out.w[P.free], p0)),
+                guide=_Guide(guide, P) if guide and name == "L" else None)
     fold = None
     if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
         fold = 0.5 * (b.bracket[0] + b.bracket[1])
@@ -345,13 +374,104 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                   nits, time.perf_counter() - t0, start_snapped=len(out.snaps) > 0)
 
 
+def _along_path(P, p, path, stats, start=None):
+    """The sheet of ``P`` at ``p`` at full load along ``path``, on ``P``'s
+    solver (check ``converged``; ``w``, ``snaps``, ``reason``), which then
+    holds the tangent at the end state (:meth:`~SheetShapeProblem.held`):
+    the load path on ``P``'s mesh (``start`` None,
+    :meth:`~skfem_sheet.sheet_shape.SheetShapeProblem.along_path`), or a
+    start strategy of :func:`~skfem_sheet.solve.solve` (e.g.
+    :class:`~skfem_sheet.starts.CoarseStart`: the path on a coarse mesh of
+    the sheet at ``p``, made afresh, its folds and end state carried to
+    ``P``'s mesh)."""
+    if start is None:
+        return P.along_path(p, path, stats)
+    prob = P.problem(p)
+    job = Job(problem=prob, path=path, kappa=P.kappa(p), gravity=1.0, linear=P.solver,
+              solver=P.solver_name, newton_options=NewtonOptions(), step_options=StepOptions(),
+              stats=stats, build=lambda h: SheetProblem(prob.sheet, sheet_mesh(
+                  prob.sheet, h, None, half=P.half), prob.quadrature_order))
+    out = start.reach(job)
+    P.solver_used()
+    return out
+
+
+@dataclass(frozen=True)
+class _SameBranch:
+    """What :func:`_follow` returns where its start lies on its twin's branch."""
+
+    newton_iterations: int
+
+
+def _same_state(P, counter, p, w, other, w_other) -> bool:
+    """Whether the equilibrium ``w`` of ``P`` at ``p`` is the equilibrium
+    ``w_other`` of the problem ``other`` (another mesh of the same sheet):
+    Newton from ``w_other`` carried onto ``P`` converges to within ten
+    times Newton's tolerance of ``w`` (two distinct equilibria of a sheet
+    are O(0.1 a) apart; the carried state is off by the two meshes'
+    difference, which Newton removes).  Costs the factorisations of that
+    Newton solve."""
+    u0 = transfer(other, w_other, P.problem(p))[P.free]
+    res = correct(counter, u0, np.asarray(p, dtype=float), _chord_linearization(counter),
+                  _tolerances())
+    return bool(res.converged and
+                counter.correction_norm(res.u - w[P.free]) <= 10 * _OPTIONS.utol)
+
+
+@dataclass(frozen=True)
+class _GuidePoint:
+    """One point of a branch in L kept to guide a finer mesh's: its length,
+    the mesh's problem at the length it was made for (``base``), the full
+    state and ``dw/dL`` (zero on the clamp, whose values do not depend on L)."""
+
+    length: float
+    base: object
+    w: np.ndarray
+    rate: np.ndarray
+
+
+class _Guide:
+    """The coarse branch's second-order part as the correction of the fine
+    continuation's prediction (:func:`~skfem_sheet.engine.natural`'s
+    ``guide``).
+
+    The fine step from ``L0`` to ``L1`` predicts ``u(L0) + (L1 - L0) u'(L0)``
+    (its tangent), whose error is the branch's curvature term.  Where ``L0``
+    and ``L1`` are points of the coarse branch on one coarse mesh, the coarse
+    branch's own curvature term ``w_c(L1) - w_c(L0) - (L1 - L0) w_c'(L0)``,
+    interpolated onto the fine mesh at ``L1``, is added: the prediction's
+    error is then the difference of the two meshes' curvature terms (measured
+    on the rectangle at a/R 2.5, hmax 0.05 guided by 0.1, steps of 0.05: 1e-5
+    to 4e-4 instead of 9e-4 to 4e-3 of a, and 1-2 Newton iterations instead
+    of 2-3).  Elsewhere (a step halved off the coarse points, past the coarse
+    fold, across a coarse remesh) no correction: the tangent as without a
+    guide.
+    """
+
+    def __init__(self, points, fine):
+        self.points = tuple(points)
+        self.lengths = np.array([g.length for g in self.points])
+        self.fine = fine
+
+    def _at(self, length):
+        k = np.flatnonzero(np.abs(self.lengths - length) <= 1e-9 * max(1.0, abs(length)))
+        return self.points[int(k[0])] if k.size else None
+
+    def __call__(self, p_from, p_to):
+        a, b = self._at(float(p_from[0])), self._at(float(p_to[0]))
+        if a is None or b is None or a.base is not b.base:
+            return None
+        d = b.w - a.w - (b.length - a.length) * a.rate
+        return transfer(a.base.with_length(b.length), d, self.fine.problem(p_to))[self.fine.free]
+
+
 def _stability_of(fact):
     """``(stable, negative eigenvalues)`` of a factorisation of the branch problem
     (seen through the engine's counter)."""
     return getattr(fact, "fact", fact).stability()
 
 
-def _remeshed(P, counter, u, p, path, stats):
+def _remeshed(P, counter, u, p, path, stats, start=None):
     """A fresh mesh at the current length: ``(u, factorisation)`` there, or None.
 
     The state is interpolated onto the new mesh and re-converged (engine
@@ -365,7 +485,7 @@ def _remeshed(P, counter, u, p, path, stats):
     res = correct(counter, u_new, p, _chord_linearization(counter), _tolerances())
     if res.converged:
         return res.u, res.factorization
-    out = P.along_path(p, path, stats)
+    out = _along_path(P, p, path, stats, start)
     if not out.converged:
         return None
     return out.w[P.free], P.held(out.w[P.free], p)
@@ -390,9 +510,15 @@ class Bistability:
         rectangle at a/R = 1).
     increasing, decreasing : Branch
         The two continuations (curvature-first from the short end,
-        gravity-first from the long end; at a/R = 0 one and the same).
+        gravity-first from the long end; one and the same at a/R = 0, and
+        where the gravity-first state at the long end is the end of the
+        curvature-first continuation: a single branch, traced once).
         ``start_snapped`` on either means its branch does not exist at the
         end of the range it started from (widen ``lengths``).
+    coarse_hmax : float or None
+        The mesh the branches were first traced on (coarse to fine), or None.
+    coarse_newton_iterations : int
+        The linearisations of those coarse traces.
     """
 
     tip_width: float
@@ -406,6 +532,8 @@ class Bistability:
     decreasing: Branch
     tol: float = 0.005
     wall_time_s: float = 0.0
+    coarse_hmax: object = None
+    coarse_newton_iterations: int = 0
 
     def summary(self) -> dict:
         """JSON-ready summary (the CLI's ``--json``)."""
@@ -429,7 +557,8 @@ class Bistability:
 def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6, 2.4),
                  hmax: float = 0.06, layers=None, solver: str = "auto", step: float = 0.1,
                  tol: float = 0.005, thickness: float = 0.03, modulus: float = 735.0,
-                 progress: bool = False, on_point=(None, None)) -> Bistability:
+                 progress: bool = False, on_point=(None, None),
+                 coarse_hmax: float | None = None) -> Bistability:
     """Standout and pop-up lengths by continuation in L in both directions.
 
     The curvature-dominated branch is followed from ``lengths[0]``
@@ -437,6 +566,20 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     gravity-dominated one from ``lengths[1]`` (gravity-first) with decreasing
     L (``L0*``).  Each fold is located to ``+- tol``.  ``on_point`` is the
     pair of the two continuations' ``on_point`` (see :func:`follow_length`).
+
+    ``coarse_hmax`` (coarser than ``hmax``): coarse to fine.  Both branches
+    are traced on that mesh first; the fine ones start from the sheet solved
+    by :class:`~skfem_sheet.starts.CoarseStart` (the load path on the coarse
+    mesh, carried), and each fine step's prediction is corrected by the
+    coarse branch's second-order part (:class:`_Guide`).  Where neither
+    coarse branch has a fold and the fine curvature-dominated branch reaches
+    ``lengths[1]`` without one, the gravity-first start there is checked to
+    be that branch's end (:func:`_same_state`) and the branch is traced once
+    (``decreasing is increasing``).  The equilibria are the fine mesh's (to
+    Newton's tolerance), the folds bracketed on it; measured at hmax 0.03
+    from 0.1 (rows L/a 0.5-3, steps 0.05): 0.71 of the wall time of the fine
+    mesh alone on the bistable rectangle at a/R 2.5, 0.42 on the monotone
+    b/a 0.4 (``benchmarks/results/speed/fold_map_rows_hmax0.03.txt``).
 
     Examples
     --------
@@ -451,17 +594,53 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     base = Sheet(length=lo, tip_width=tip_width, curvature=curvature, thickness=thickness,
                  modulus=modulus)
     _check_common(base, hmax, step, tol)
+    if coarse_hmax is not None:
+        check_range("coarse_hmax", coarse_hmax, hmax, None, lo_open=True)
+    common = dict(layers=layers, solver=solver, symmetric=True, step=step, tol=tol, jump=0.1)
+    flat = base.curvature == 0.0  # a flat clamp: both load paths are one problem, one branch
+    coarse = [None, None]
+    guides = [None, None]
+    start = None
+    if coarse_hmax is not None:
+        # the branches on the coarse mesh first: their points guide the fine
+        # ones, and the fine starts are reached from the coarse mesh too
+        start = CoarseStart(hmax=coarse_hmax)
+        for k, (sheet, stop, path) in enumerate(((base, hi, "curvature-first"),
+                                                 (base.replace(length=hi), lo, "gravity-first"))):
+            if k == 1 and flat:
+                break
+            guides[k] = []
+            coarse[k] = _follow("L", sheet, stop, path=path, hmax=coarse_hmax,
+                                **{**common, "layers": None}, progress=None, record=guides[k])
+    last = []
+
+    def keep_last(problem, w, length, user=on_point[0]):
+        last[:] = [problem, w]
+        if user is not None:
+            user(problem, w, length)
+
+    # the gravity-dominated branch is the curvature-dominated one where neither
+    # has a fold on the coarse mesh and the fine one has none either: then the
+    # gravity-first start is tried against the curvature-first end (_same_state)
     bars = _bars(progress, lo, hi)
     try:
-        up = follow_length(base, hi, path="curvature-first", hmax=hmax, layers=layers,
-                           solver=solver, step=step, tol=tol, progress=bars[0],
-                           on_point=on_point[0])
-        if base.curvature == 0.0:
-            down = up  # a flat clamp: both load paths are one problem, with one branch
-        else:
-            down = follow_length(base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
-                                 layers=layers, solver=solver, step=step, tol=tol,
-                                 progress=bars[1], on_point=on_point[1])
+        up = _follow("L", base, hi, path="curvature-first", hmax=hmax, **common,
+                     progress=bars[0], on_point=keep_last if coarse_hmax else on_point[0],
+                     start=start, guide=guides[0])
+        down = up if flat else None
+        if not flat:
+            twin = None
+            if (coarse[0] is not None and coarse[1] is not None and coarse[0].fold is None
+                    and coarse[1].fold is None and not coarse[1].start_snapped
+                    and up.fold is None and not up.reason and last):
+                twin = tuple(last)
+            down = _follow("L", base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
+                           **common, progress=bars[1], on_point=on_point[1], start=start,
+                           guide=guides[1], twin=twin)
+            if isinstance(down, _SameBranch):
+                up = replace(up, newton_iterations=up.newton_iterations
+                             + down.newton_iterations)
+                down = up
     finally:  # also when a continuation raises: no bar left open on the terminal
         for b in bars:
             if b is not None:
@@ -471,7 +650,8 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     L0 = None if down.start_snapped else down.fold
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
                        bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
-                       tol, time.perf_counter() - t0)
+                       tol, time.perf_counter() - t0, coarse_hmax,
+                       sum(c.newton_iterations for c in coarse if c is not None))
 
 
 class _Bar:

@@ -6,6 +6,7 @@ from skfem_sheet.bistability import fold_lengths, stability, transfer
 from skfem_sheet.cli import main
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.mesh import sheet_mesh
+from skfem_sheet.params import ParameterError
 from skfem_sheet.problem import SheetProblem
 
 
@@ -109,3 +110,56 @@ def test_curvature_continuation_brackets_both_critical_curvatures():
     assert down.fold < 2.5 < up.fold
     assert abs(up.bracket[1] - up.bracket[0]) <= 0.01 + 1e-12
     assert np.all(np.diff(up.deflections) < 0)  # curvature lifts the drooped sheet
+
+
+def _common_lengths(a, b, atol=1e-9):
+    """Deflections of branches ``a`` and ``b`` at the lengths both visited."""
+    da, db = [], []
+    for L, d in zip(a.lengths, a.deflections):
+        k = np.flatnonzero(np.abs(b.lengths - L) <= atol)
+        if k.size:
+            da.append(d)
+            db.append(b.deflections[k[0]])
+    return np.array(da), np.array(db)
+
+
+@pytest.mark.parametrize("tip_width, lengths, bistable", [(1.0, (1.15, 1.45), True),
+                                                         (0.0, (0.8, 1.4), False)])
+def test_coarse_to_fine_rows_agree_with_the_fine_mesh_alone(tip_width, lengths, bistable):
+    """fold_lengths(coarse_hmax=...): the branches traced on the coarse mesh
+    first, the fine starts reached from it and each fine step predicted with
+    the coarse branch's second-order part: the same equilibria (Newton's
+    tolerance), the same folds to the bisection's resolution, in fewer fine
+    linearisations; a branch without folds at all is traced once (the
+    gravity-first start checked to be the curvature-first end)."""
+    kw = dict(lengths=lengths, hmax=0.1, step=0.1 if bistable else 0.15)
+    fine = fold_lengths(tip_width, 2.5, **kw)
+    c2f = fold_lengths(tip_width, 2.5, coarse_hmax=0.2, **kw)
+    assert c2f.coarse_hmax == 0.2 and c2f.coarse_newton_iterations > 0
+    assert c2f.bistable == fine.bistable == bistable
+    for name in ("popup_length", "standout_length"):
+        a, b = getattr(fine, name), getattr(c2f, name)
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert abs(a - b) <= 2 * fine.tol + 1e-12
+    up_f, up_c = _common_lengths(fine.increasing, c2f.increasing)
+    assert len(up_f) >= 3
+    np.testing.assert_allclose(up_c, up_f, atol=1e-5)
+    work = c2f.increasing.newton_iterations + (
+        0 if c2f.decreasing is c2f.increasing else c2f.decreasing.newton_iterations)
+    assert work < fine.increasing.newton_iterations + fine.decreasing.newton_iterations
+    if bistable:
+        down_f, down_c = _common_lengths(fine.decreasing, c2f.decreasing)
+        assert len(down_f) >= 3
+        np.testing.assert_allclose(down_c, down_f, atol=1e-5)
+    else:
+        # one branch, traced once; the fine mesh alone traced it twice, on two
+        # meshes (their deflections differ by the mesh's, far less than 0.01)
+        assert c2f.decreasing is c2f.increasing
+        a, b = _common_lengths(fine.decreasing, c2f.increasing)
+        assert len(a) >= 3 and np.abs(a - b).max() < 0.01
+
+
+def test_coarse_hmax_must_be_coarser():
+    with pytest.raises(ParameterError, match="coarse_hmax"):
+        fold_lengths(1.0, 2.5, lengths=(1.0, 1.2), hmax=0.2, coarse_hmax=0.1)

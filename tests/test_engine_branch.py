@@ -216,3 +216,30 @@ def test_inertia_change_ends_a_branch_only_when_asked():
     assert loose.completed
     k = [pt.negative_eigenvalues for pt in loose.points]
     assert k[0] == 0 and k[-1] == 1
+
+
+def test_guide_corrects_the_prediction_and_none_leaves_it():
+    """``guide(p_from, p_to)`` is added to the tangent prediction: with the
+    branch's exact second-order part each step starts within third order of
+    the root and converges in fewer linearisations, at the same points; a
+    guide that returns None changes nothing."""
+    P = cubic()
+
+    def second_order(p_from, p_to):
+        # the branch's own u(p_to) - u(p_from) - (p_to - p_from) u'(p_from)
+        u0 = root(p_from[0])
+        du = -1.0 / (3 * u0**2 - 1)
+        return np.array([root(p_to[0]) - u0 - (p_to[0] - p_from[0]) * du])
+
+    tol = Tolerances(rtol=1e-12, utol=1e-12)
+    kw = dict(step=0.05, tol=tol, locate=False, grow_after=None, max_step=0.05)
+    plain = natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, **kw)
+    guided = natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, guide=second_order, **kw)
+    none = natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, guide=lambda a, b: None, **kw)
+    assert plain.completed and guided.completed
+    np.testing.assert_allclose(guided.values, plain.values)
+    np.testing.assert_allclose([pt.u[0] for pt in guided.points],
+                               [root(v) for v in guided.values], atol=1e-12)
+    assert guided.stats.factorizations < plain.stats.factorizations
+    assert [pt.iterations for pt in none.points] == [pt.iterations for pt in plain.points]
+    assert [pt.u[0] for pt in none.points] == [pt.u[0] for pt in plain.points]

@@ -156,7 +156,7 @@ def _fake_fold_lengths(up_snapped, down_snapped):
         return SimpleNamespace(increasing=branch(up_snapped, [lengths[0], lengths[0] + 0.1]),
                                decreasing=branch(down_snapped, [lengths[1], lengths[1] - 0.1]),
                                popup_length=None, standout_length=None, bistable=False,
-                               wall_time_s=0.1)
+                               wall_time_s=0.1, coarse_newton_iterations=0)
     return fold_lengths
 
 

@@ -15,6 +15,7 @@ from ..bistability import fold_lengths, follow_curvature, s_curve
 from ..io import Series, check_directory, check_writable, write_json
 from ..params import ParameterError, Sheet
 from ..states import fold_position
+from ..studies.foldmap import row_coarse_hmax
 from .ranges import parse_range
 from .solve import SI_HELP, planform_flags, solver_help
 
@@ -46,6 +47,12 @@ def register(subparsers) -> None:
                    help="range of L/a searched, short:long (default 0.6:2.4, widened to "
                         "hold --length)")
     p.add_argument("--hmax", type=float, default=0.06, help="mesh size (default 0.06)")
+    p.add_argument("--coarse-hmax", type=float, default=None,
+                   help="trace both branches on this coarser mesh first and follow them on "
+                        "--hmax from there (the coarse states start the fine branches and "
+                        "correct each step's prediction; same equilibria, fewer fine "
+                        "factorisations); 0: none, the branches on --hmax alone. Default: the "
+                        "fold map's rule, hmax 0.1 for --hmax 0.05 and finer, none above")
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--step", type=float, default=0.1, help="largest length step (default 0.1)")
@@ -125,7 +132,9 @@ def run(args) -> int:
     r = fold_lengths(args.tip_width, args.curvature, lengths=(lo, hi), hmax=args.hmax,
                      layers=args.layers, solver=args.solver, step=args.step, tol=args.tol,
                      thickness=args.thickness, modulus=args.modulus, progress=not args.quiet,
-                     on_point=tuple(None if x is None else x.on_point for x in series))
+                     on_point=tuple(None if x is None else x.on_point for x in series),
+                     coarse_hmax=(row_coarse_hmax(args.hmax) if args.coarse_hmax is None
+                                  else args.coarse_hmax or None))
     data = r.summary()
     data["thickness"], data["modulus"] = args.thickness, args.modulus
     print(f"planform b/a = {args.tip_width:g} at a/R = {args.curvature:g}, h/a = "

@@ -162,7 +162,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
             progress=None, growth: float = 1.5, grow_after=3, bracket=None,
             inertia_change: bool = True, check=None, before_step=None, on_step=None,
-            linearization=None, start=None, approach: int = 8) -> Branch:
+            linearization=None, start=None, approach: int = 8, guide=None) -> Branch:
     """Natural continuation in one parameter with fold detection and location.
 
     Parameters
@@ -216,6 +216,13 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     start : (u, factorization), optional
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
+    guide : callable(p_from, p_to) -> ndarray or None, optional
+        A correction added to the tangent prediction of the step from the
+        parameters ``p_from`` to ``p_to`` (None: none for this step), e.g.
+        the second-order part of the same branch on a coarser discretisation
+        (``u_c(p_to) - u_c(p_from) - (p_to - p_from) du_c/dp(p_from)``,
+        carried over): the prediction's error is then the *difference* of
+        the two branches' curvatures, and Newton starts closer.
     approach : int
         At the last failed step (the branch given up), the fold is located
         with this ``approach`` (:func:`~skfem_sheet.engine.fold.locate_fold`:
@@ -282,6 +289,9 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         pt = p.copy()
         pt[i] = lam_try
         u_pred = u + (lam_try - p[i]) * dudp
+        extra = guide(p, pt) if guide is not None else None
+        if extra is not None:
+            u_pred = u_pred + extra
         res = _correct(counter, u_pred, pt, tol, linearization)
         why = "" if res.converged else f"Newton: {res.reason}"
         if res.converged:

@@ -63,7 +63,8 @@ from .runner import (
     typed_frame,
 )
 
-__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "branch_curve",
+__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "row_coarse_hmax",
+           "branch_curve",
            "transition_length", "modes", "critical_tip_width", "CURVE_PARAMETERS",
            "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves", "critical_curve"]
 
@@ -167,13 +168,28 @@ def _run_map_point(point) -> dict:
     return computed_record(point, _key, _empty_record, _fill_map_record)
 
 
+def row_coarse_hmax(hmax: float):
+    """The mesh a map point's branches are first traced on (coarse to fine):
+    :data:`COARSE_HMAX`'s first for meshes at most half as large, else None
+    (the branches on the point's own mesh alone).
+
+    Examples
+    --------
+    >>> row_coarse_hmax(0.03), row_coarse_hmax(0.06), row_coarse_hmax(0.1)
+    (0.1, None, None)
+    """
+    return COARSE_HMAX[0] if 2 * float(hmax) <= COARSE_HMAX[0] * (1 + 1e-12) else None
+
+
 def _fill_map_record(point, rec) -> None:
-    """Put the fold lengths and branch curves of a map point into its record."""
+    """Put the fold lengths and branch curves of a map point into its record
+    (traced coarse to fine on fine meshes, :func:`row_coarse_hmax`; the
+    record's ``newton_iterations`` counts the coarse traces' too)."""
     r = fold_lengths(point["tip_width"], point["curvature"],
                      lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
                      layers=point["layers"], solver=point["solver"], step=point["step"],
                      tol=point["tol"], thickness=point["thickness"],
-                     modulus=point["modulus"])
+                     modulus=point["modulus"], coarse_hmax=row_coarse_hmax(point["hmax"]))
     up, down = r.increasing, r.decreasing
     notes = []
     if up.start_snapped:
@@ -192,7 +208,8 @@ def _fill_map_record(point, rec) -> None:
                gravity_dominated_snapped=bool(down.start_snapped),
                curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
                newton_iterations=int(up.newton_iterations
-                                     + (down.newton_iterations if down is not up else 0)),
+                                     + (down.newton_iterations if down is not up else 0)
+                                     + r.coarse_newton_iterations),
                wall_time_s=float(r.wall_time_s))
     rec["transition_length"] = _nan(transition_length(rec))
 
