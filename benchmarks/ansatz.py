@@ -2,6 +2,7 @@
 
     python benchmarks/ansatz.py [--hmax 0.03] [--thickness 0.03175] [--second-thickness 0.02]
         [--json out.json] [--txt out.txt]
+    python benchmarks/ansatz.py --residual-study [--json out.json] [--txt out.txt]
 
 Supplement, "Motivation/validation of reduced-order ansatzes": without
 gravity, a rectangle clamped on an arc (a/R = 0.5, h/a = 0.03175) has
@@ -38,6 +39,12 @@ gravity=0.0)`` (curvature-first, the symmetric half, the default start):
   same fit is repeated with a/R in proportion to h/a (the ansatz's scaling
   ``w ~ a (h/a)``, i.e. ``c ~ (h/a)/a``, which also keeps the persistence
   length a^2/sqrt(70 h R)): ``inplane_exponent_similar``.
+
+``--residual-study``: w's quadratic residual of the S4 sections on three
+meshes (0.045, 0.03, 0.02), for thinner sheets (h/a 0.02, 0.01) at a/R 0.5
+and with a/R in proportion to h/a, and at small clamp curvatures (a/R 0.1,
+0.02: the linear limit) -- whether the residual is the mesh's, and whether it
+vanishes in any limit of the ansatz (:data:`RESIDUAL_STUDY`).
 
 Defaults are the paper's parameters at the paper's mesh (hmax 0.03); the
 default-suite tests (``tests/test_supplement.py``) run the same functions at
@@ -229,17 +236,71 @@ def table(out) -> str:
     return "\n".join(lines)
 
 
+#: The residual study: (h/a, hmax, a/R) of each S4 solve.  The paper's case on
+#: three meshes (is the residual the mesh's?), thinner sheets at the same a/R
+#: and with a/R in proportion to h/a (the ansatz's limit H -> 0), and small
+#: clamp curvatures (the linear limit).
+RESIDUAL_STUDY = ((THICKNESS, 0.045, CURVATURE), (THICKNESS, 0.03, CURVATURE),
+                  (THICKNESS, 0.02, CURVATURE),
+                  (0.02, 0.03, CURVATURE), (0.01, 0.03, CURVATURE),
+                  (0.02, 0.03, CURVATURE * 0.02 / THICKNESS),
+                  (0.01, 0.03, CURVATURE * 0.01 / THICKNESS),
+                  (THICKNESS, 0.03, 0.1), (THICKNESS, 0.03, 0.02))
+
+
+def residual_study(cases=RESIDUAL_STUDY):
+    """w's quadratic residual at the S4 sections against the mesh, the
+    thickness and the clamp curvature: one row per case (``thickness``,
+    ``hmax``, ``curvature``, ``dofs``, and per section ``w_quadratic_residual``,
+    ``w_quartic_residual``, ``lateral_curvature``)."""
+    out = []
+    for H, h, kappa in cases:
+        t0 = time.perf_counter()
+        rows, result = s4_sections(H, h, curvature=kappa)
+        out.append({"thickness": H, "hmax": h, "curvature": kappa, "dofs": result.dofs,
+                    "sections": [{k: r[k] for k in ("s", "w_quadratic_residual",
+                                                    "w_quartic_residual", "lateral_curvature")}
+                                 for r in rows],
+                    "wall_time_s": time.perf_counter() - t0})
+    return out
+
+
+def study_table(rows) -> str:
+    s = [f"{x['s']:g}" for x in rows[0]["sections"]]
+    lines = ["w's relative residual from a least-squares quadratic in t over the full width "
+             "(S4 rectangle, L/a 2, no gravity),",
+             "against the mesh, the thickness and the clamp curvature",
+             "",
+             f"  h/a      hmax    a/R     dofs   quadratic resid. at s/a {', '.join(s):<14}"
+             f"  even quartic resid.   c(s) a",
+             "-" * 110]
+    for r in rows:
+        q = " ".join(f"{x['w_quadratic_residual']:.4f}" for x in r["sections"])
+        q4 = " ".join(f"{x['w_quartic_residual']:.4f}" for x in r["sections"])
+        c = " ".join(f"{x['lateral_curvature']:.4f}" for x in r["sections"])
+        lines.append(f"  {r['thickness']:<7g}  {r['hmax']:<5g}  {r['curvature']:<6.4g} "
+                     f"{r['dofs']:7d}   {q:<38} {q4:<21} {c}")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("--hmax", type=float, default=0.03)
     ap.add_argument("--thickness", type=float, default=THICKNESS)
     ap.add_argument("--second-thickness", type=float, default=0.02,
                     help="second h/a for the in-plane exponent (0: none)")
+    ap.add_argument("--residual-study", action="store_true",
+                    help="instead: w's quadratic residual against the mesh, the thickness and "
+                         "the clamp curvature (RESIDUAL_STUDY; about 3 min)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--txt", default=None)
     args = ap.parse_args(argv)
-    out = run(args.hmax, args.thickness, args.second_thickness or None)
-    text = table(out)
+    if args.residual_study:
+        out = {"cases": residual_study()}
+        text = study_table(out["cases"])
+    else:
+        out = run(args.hmax, args.thickness, args.second_thickness or None)
+        text = table(out)
     print(text)
     if args.json:
         atomic_write(args.json, dumps_json(out) + "\n")

@@ -9,14 +9,35 @@ Usage::
     python benchmarks/snap_baseline.py OUT.jsonl --options '{"solve": {"coarse_hmax": 0.2}}'
     python benchmarks/snap_baseline.py --compare A.jsonl B.jsonl
 
+    python benchmarks/snap_baseline.py --trace '{"length": 3, "curvature": 2.5}' \\
+        --path curvature-first --hmax 0.03 [--ds 0.01] [--txt out.txt]
+
 ``--compare`` prints both runs side by side, the relative change of d, the
 totals of Newton iterations and factorisations, and how many cases are equal bit
 for bit (exit status 1 if not all).
+
+``--trace SHEET``: the independent check behind a snap, or its absence, that
+does not use the load path's driver.  The first phase of ``--path`` (the
+curvature ramp at no gravity, or the gravity ramp at a flat clamp from the
+heavy elastica) is solved to full load, and the second phase is traced by
+the engine's pseudo-arclength driver (steps ``ds`` to ``5 ds``) from its
+start to past its full load, with the inertia of the Hessian factorised at
+every point.  A turning point of the load is a sign change of the tangent's
+load component, located by Newton on the fold system, with one eigenvalue
+crossing zero there; a branch that is only steep has neither.  Printed: the
+folds found, the negative-eigenvalue counts met, and the trace (load
+fraction, d/a).  Used for the L 3 rectangle at a/R 2.5 curvature-first
+(issue 26: whether its gravity ramp has a fold the load path should record
+as a snap) at hmax 0.05 and 0.03
+(``results/robustness/phase_trace_L3_aR2.5.txt``).
 """
 import json
 import os
 import subprocess
 import sys
+import time
+
+import numpy as np
 
 from harness import parser
 
@@ -123,6 +144,74 @@ def compare(a, b):
     return 0 if len(same) == len(A) else 1
 
 
+def trace_second_phase(sheet, path: str, hmax: float, ds: float = 0.01,
+                       max_points: int = 400) -> dict:
+    """The second phase of ``path`` traced through (see the module):
+    ``{"dofs", "folds", "inertia", "completed", "reason", "points", "wall_time_s"}``
+    with ``points`` the ``(load fraction, d/a, negative eigenvalues)`` of each
+    point in arclength order."""
+    # imported here: the regression set's children import the checkout under test themselves
+    from skfem_sheet.analyses.observables import tip_deflection
+    from skfem_sheet.continuation import elastica_state, load_phases, newton_tolerances
+    from skfem_sheet.engine import arclength, ramp
+    from skfem_sheet.engine.protocol import Counting
+    from skfem_sheet.linalg import make_linear_solver
+    from skfem_sheet.newton import NewtonOptions, Stats, newton
+    from skfem_sheet.sheet_engine import LoadPhase, SheetLoadProblem
+    from skfem_sheet.solve import build_problem
+
+    t0 = time.perf_counter()
+    problem = build_problem(sheet, hmax, None, 2, True, 0)
+    solver = make_linear_solver()
+    options = NewtonOptions()
+    loads = SheetLoadProblem(problem, solver, Stats(), options)
+    phases = load_phases(path, sheet.curvature)
+    tol = newton_tolerances(options)
+    first, start, end = phases[0]
+    if first == "gravity":
+        u = newton(problem, elastica_state(problem, 1.0), 1.0, solver, options,
+                   Stats()).w[problem.free]
+    else:
+        b0 = ramp(Counting(LoadPhase(loads, start, end)), np.zeros(loads.n), [0.0], "lam", 1.0,
+                  tol=newton_tolerances(options, 5e-3), end_tol=tol)
+        if not b0.completed:
+            raise RuntimeError(f"the first phase did not reach full load: {b0.reason}")
+        u = b0.points[-1].u
+    phase = LoadPhase(loads, *phases[1][1:])
+    points = []
+
+    def on_step(point, res):
+        kappa, g = phase.loads(point.p)
+        points.append((float(point.p[0]), tip_deflection(problem, loads.full(point.u, (kappa, g))),
+                       point.negative_eigenvalues))
+
+    branch = arclength(Counting(phase), u, np.array([0.0]), "lam", (-0.5, 1.2), ds=ds,
+                       ds_max=5 * ds, tol=tol, max_points=max_points, check_inertia=True,
+                       on_step=on_step)
+    return {"dofs": int(problem.ndof), "folds": [float(f.value) for f in branch.folds],
+            "inertia": sorted({-1 if k is None else int(k) for _, _, k in points}),
+            "completed": bool(branch.completed), "reason": branch.reason, "points": points,
+            "wall_time_s": time.perf_counter() - t0}
+
+
+def trace_table(sheet, path, hmax, ds, out) -> str:
+    """The trace of :func:`trace_second_phase` as text."""
+    lam = [p[0] for p in out["points"]]
+    monotone = bool(np.all(np.diff(lam) > 0))
+    lines = [f"second phase of {path}: L/a {sheet.length:g}, b/a {sheet.tip_width:g}, "
+             f"a/R {sheet.curvature:g}, h/a {sheet.thickness:g}, E/(rho g a) {sheet.modulus:g}, "
+             f"hmax {hmax:g} ({out['dofs']} unknowns), ds {ds:g}",
+             f"  {len(lam)} points, completed {out['completed']}{' (' + out['reason'] + ')' if out['reason'] else ''}, "
+             f"load fraction monotone along the trace: {monotone}",
+             f"  folds (turning points of the load): {out['folds'] or 'none'}",
+             f"  negative eigenvalues met along the trace: {out['inertia']}",
+             f"  wall {out['wall_time_s']:.1f} s",
+             "",
+             "   load fraction        d/a  negative eigenvalues"]
+    lines += [f"  {q:14.6g} {d:10.6f}  {'?' if k is None else k}" for q, d, k in out["points"]]
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("out", nargs="?", help="the JSON-lines file to write")
@@ -133,9 +222,29 @@ def main(argv=None):
                          '\'{"newton": {...}, "step": {...}, "solve": {"coarse_hmax": 0.2}}\'')
     ap.add_argument("--compare", nargs=2, metavar=("A.jsonl", "B.jsonl"),
                     help="compare two runs instead (exit 1 unless bit for bit)")
+    ap.add_argument("--trace", type=json.loads, default=None, metavar="SHEET",
+                    help='instead: trace the second phase of --path for this sheet (JSON of '
+                         'Sheet keywords, e.g. \'{"length": 3, "curvature": 2.5}\')')
+    ap.add_argument("--path", choices=("curvature-first", "gravity-first"),
+                    default="curvature-first", help="with --trace")
+    ap.add_argument("--hmax", type=float, default=0.1, help="with --trace")
+    ap.add_argument("--ds", type=float, default=0.01,
+                    help="with --trace: first arclength step (largest: 5 ds)")
+    ap.add_argument("--txt", default=None, help="with --trace: write the table here too")
     args = ap.parse_args(argv)
     if args.compare:
         return compare(*args.compare)
+    if args.trace is not None:
+        from skfem_sheet import Sheet
+
+        sheet = Sheet(**args.trace)
+        text = trace_table(sheet, args.path, args.hmax, args.ds,
+                           trace_second_phase(sheet, args.path, args.hmax, args.ds))
+        print(text)
+        if args.txt:
+            with open(args.txt, "w") as f:
+                f.write(text + "\n")
+        return 0
     if args.out is None:
         ap.error("give OUT.jsonl (or --compare A.jsonl B.jsonl)")
     run(args.out, args.root, args.options)

@@ -15,14 +15,15 @@ def test_fold_lengths_closes_its_bars_when_a_continuation_raises(monkeypatch, fa
         made.extend(out)
         return out
 
-    def follow_length(sheet, stop, **kw):
+    def follow(name, sheet, stop, **kw):
+        # fold_lengths' two continuations in L (bistability._follow)
         calls.append(stop)
         if len(calls) == fail_on:
             raise ParameterError("the starting sheet could not be solved")
-        return None
+        return bistability.Branch(())
 
     monkeypatch.setattr(bistability, "_bars", bars)
-    monkeypatch.setattr(bistability, "follow_length", follow_length)
+    monkeypatch.setattr(bistability, "_follow", follow)
     with pytest.raises(ParameterError, match="could not be solved"):
         bistability.fold_lengths(1.0, 2.5, lengths=(1.0, 1.7), hmax=0.2, progress=True)
     assert len(made) == 2 and len(calls) == fail_on
