@@ -551,6 +551,9 @@ class Bistability:
                 "length_range": list(self.length_range),
                 "curvature_dominated": branch(self.increasing),
                 "gravity_dominated": branch(self.decreasing),
+                "one_branch": self.decreasing is self.increasing,
+                "coarse_hmax": self.coarse_hmax,
+                "coarse_newton_iterations": self.coarse_newton_iterations,
                 "wall_time_s": self.wall_time_s, "version": __version__}
 
 

@@ -136,6 +136,8 @@ def test_coarse_to_fine_rows_agree_with_the_fine_mesh_alone(tip_width, lengths, 
     fine = fold_lengths(tip_width, 2.5, **kw)
     c2f = fold_lengths(tip_width, 2.5, coarse_hmax=0.2, **kw)
     assert c2f.coarse_hmax == 0.2 and c2f.coarse_newton_iterations > 0
+    summary = c2f.summary()
+    assert summary["coarse_hmax"] == 0.2 and summary["one_branch"] == (not bistable)
     assert c2f.bistable == fine.bistable == bistable
     for name in ("popup_length", "standout_length"):
         a, b = getattr(fine, name), getattr(c2f, name)

@@ -64,9 +64,9 @@ from .runner import (
 )
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "row_coarse_hmax",
-           "branch_curve",
-           "transition_length", "modes", "critical_tip_width", "CURVE_PARAMETERS",
-           "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves", "critical_curve"]
+           "branch_curve", "transition_length", "modes", "critical_tip_width",
+           "CURVE_PARAMETERS", "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves",
+           "critical_curve"]
 
 #: Input parameters of a map point and their defaults.
 MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
