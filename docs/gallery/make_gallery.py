@@ -11,15 +11,16 @@ Parts (default: all, in this order), each writing ``docs/gallery/<part>.png``:
   ``benchmarks/results/accuracy/manufactured.json`` was copied to DIR (panel b);
 - ``figS3``, ``figS4``: ``python -m skfem_sheet figure figS3|figS4 --quality paper
   --data-dir DIR`` (one solve each at hmax 0.03);
+- ``fig2``, ``fig4``, ``fig5``, ``fig6``: ``python -m skfem_sheet figure figN --quality paper
+  --data-dir DIR`` after DIR was seeded with the recorded journals of ``figure all --quality
+  paper`` (``benchmarks/results/speed/foldmap-paper_hmax0.03_e992b48.jsonl``: the 26 fold-map
+  rows at hmax 0.03, and ``foldcurves-paper_hmax0.03_e992b48.jsonl``: the 18 fold curves;
+  ``figure_all_paper_e992b48.txt``): no finite-element solve, the ribbon model's curves and
+  map computed (fig6's paper map, 126 x 51 per curvature: about 2 min);
 - ``fig7``: :func:`skfem_sheet.figures.draw_fig7` of the recorded paper-quality fold
   curves (``benchmarks/results/speed/foldcurves-paper_hmax0.03.csv``: 18 curves at hmax 0.03,
   ``fold_map_paper_hmax0.03.txt``), what ``figure fig7 --quality paper`` draws from its
   table;
-- ``fig6``: :func:`skfem_sheet.figures.draw_fig6` with the paper ribbon map
-  (:func:`skfem_sheet.figures.fig6_ribbon`, 126 x 51 per curvature, cached in DIR) and
-  the recorded hmax 0.03 fold curves at a/R 2.5 and 5 (the FE bistable region and the
-  mode markers above the cusp); the markers of the tapered, single-mode shape factors
-  below the cusp need the paper fold map (hours per point at hmax 0.03) and are not drawn;
 - ``fig3``: ``python -m skfem_sheet figure fig3 --quality paper --data-dir DIR`` (six
   solves at hmax 0.03, smooth shading);
 - ``demo``: ``python -m skfem_sheet demo --png docs/gallery/demo.png`` (hmax 0.04, the
@@ -108,23 +109,29 @@ def part_fig7(data_dir):
     return 0
 
 
-def part_fig6(data_dir):
-    import matplotlib
+def _seed_paper_journals(data_dir):
+    """DIR with the recorded paper-quality journals of ``figure all`` (the fold map's rows and
+    the fold curves), so that ``figure figN --quality paper`` computes no finite elements."""
+    for recorded, table in (("foldmap-paper_hmax0.03_e992b48.jsonl", "foldmap-paper.csv"),
+                            ("foldcurves-paper_hmax0.03_e992b48.jsonl", "foldcurves-paper.csv")):
+        target = os.path.join(data_dir, table + ".journal.jsonl")
+        if not os.path.exists(target):
+            shutil.copyfile(os.path.join(RESULTS, "speed", recorded), target)
 
-    matplotlib.use("Agg")
-    import pandas as pd
 
-    from skfem_sheet.figures import draw_fig6, fig6_ribbon
-    from skfem_sheet.figures.common import arange, quality_settings
-    from skfem_sheet.studies import foldmap
+def _paper_figure(name):
+    def part(data_dir):
+        from skfem_sheet.cli import main
 
-    curves = recorded_curves()
-    curves = curves[curves["curvature"].isin([2.5, 5.0]) & (curves["second"] == "tip_width")]
-    rom = fig6_ribbon("paper", data_dir, progress=False, workers=1)
-    fe = pd.DataFrame(columns=list(foldmap.MAP_COLUMNS))
-    Lm = arange(*quality_settings("paper")["fig6_lengths"])
-    _save(draw_fig6(fe, rom, "paper", mode_lengths=Lm, curves=curves), "fig6")
-    return 0
+        _seed_paper_journals(data_dir)
+        return main(["figure", name, "--quality", "paper", "--data-dir", data_dir,
+                     "--out", _out(name), "--quiet"])
+    part.__name__ = f"part_{name}"
+    return part
+
+
+part_fig2, part_fig4, part_fig5, part_fig6 = (_paper_figure(n) for n in ("fig2", "fig4", "fig5",
+                                                                          "fig6"))
 
 
 def part_fig3(data_dir):
@@ -197,7 +204,8 @@ def part_planform_bites(data_dir):
 
 
 PARTS = {"figS1": part_figS1, "figS3": part_figS3, "figS4": part_figS4, "fig7": part_fig7,
-         "fig6": part_fig6, "fig3": part_fig3, "demo": part_demo,
+         "fig2": part_fig2, "fig4": part_fig4, "fig5": part_fig5, "fig6": part_fig6,
+         "fig3": part_fig3, "demo": part_demo,
          "demo_pyvista": part_demo_pyvista, "planform_bites": part_planform_bites}
 
 
