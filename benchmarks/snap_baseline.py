@@ -242,8 +242,9 @@ def main(argv=None):
                            trace_second_phase(sheet, args.path, args.hmax, args.ds))
         print(text)
         if args.txt:
-            with open(args.txt, "w") as f:
-                f.write(text + "\n")
+            from skfem_sheet.io import atomic_write
+
+            atomic_write(args.txt, text + "\n")
         return 0
     if args.out is None:
         ap.error("give OUT.jsonl (or --compare A.jsonl B.jsonl)")

@@ -53,11 +53,10 @@ from .analyses.transfer import transfer
 from .continuation import StepOptions
 from .engine import EngineFailure, Tolerances, arclength, correct, natural
 from .engine.protocol import Counting
-from .mesh import sheet_mesh
 from .newton import NewtonOptions, Stats
 from .params import ParameterError, Sheet, check_range
-from .problem import SheetProblem
 from .sheet_shape import REMESH_STRETCH, SheetShapeProblem
+from .solve import build_problem
 from .starts import CoarseStart, Job
 from .version import __version__
 
@@ -389,8 +388,8 @@ def _along_path(P, p, path, stats, start=None):
     prob = P.problem(p)
     job = Job(problem=prob, path=path, kappa=P.kappa(p), gravity=1.0, linear=P.solver,
               solver=P.solver_name, newton_options=NewtonOptions(), step_options=StepOptions(),
-              stats=stats, build=lambda h: SheetProblem(prob.sheet, sheet_mesh(
-                  prob.sheet, h, None, half=P.half), prob.quadrature_order))
+              stats=stats, build=lambda h: build_problem(prob.sheet, h, None,
+                                                         prob.quadrature_order, P.half))
     out = start.reach(job)
     P.solver_used()
     return out
