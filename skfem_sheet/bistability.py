@@ -155,22 +155,36 @@ _OPTIONS = NewtonOptions()
 
 
 def _tolerances(max_correction=np.inf):
-    # one more linearisation than factorisations: the last one only confirms
+    # linearisations: the factorisations, the chord steps after them (see
+    # _chord_linearization: each at least halves a correction already below
+    # utol), and the last one, which only confirms
     return Tolerances(rtol=_OPTIONS.rtol, utol=_OPTIONS.utol,
-                      max_iterations=_OPTIONS.max_iterations + 1,
+                      max_iterations=2 * _OPTIONS.max_iterations + 1,
                       max_halvings=_OPTIONS.max_halvings, max_correction=max_correction)
 
 
 def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
-    """Newton steps with the sheet's stopping rule (:func:`skfem_sheet.newton.newton`).
+    """Newton steps with the sheet's stopping rule (:func:`skfem_sheet.newton.newton`),
+    the last factorisation reused for the residual that is left once the
+    state has converged.
 
-    At an iterate whose residual is below ``rtol``, the correction is first
-    computed with the last factorisation (a back-substitution, no
-    factorisation spent only to confirm convergence); if it is below ``utol``
-    the corrector stops there and returns that iterate.  Otherwise the tangent is factorised at the
-    iterate, at most ``max_factorizations`` times per correction.
+    At every iterate after the first the correction is first computed with
+    the last factorisation (a back-substitution).  If the residual there is
+    below ``rtol`` and that correction below ``utol``, the corrector stops
+    and returns the iterate (no factorisation spent only to confirm
+    convergence).  If the correction is below ``utol`` and at most half the
+    last one, but the residual is above ``rtol``, it is taken as it is (a
+    chord step): a thin sheet one correction of 1e-6 a away from its
+    equilibrium still has residuals of a percent of its weight in the stiff
+    membrane directions, which the factorisation at a state that close
+    removes as well as a new one (measured on the rectangle at a/R 2.5,
+    hmax 0.05, steps in L of 0.025 and 0.05: residuals 1.4e-2 and 1.9e-4 of
+    the weight brought to 2.9e-5 and 7.8e-8 by one chord step each, two
+    factorisations per step instead of three).  Otherwise the tangent is
+    factorised at the iterate, at most ``max_factorizations`` times per
+    correction.
     """
-    state = {"fact": None, "n": 0}
+    state = {"fact": None, "n": 0, "last": None}
     tol = _OPTIONS
 
     def linearize(u, p):
@@ -178,20 +192,25 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
         if not np.all(np.isfinite(r)):
             raise EngineFailure("inverted element or NaN in the residual")
         rn = counter.residual_norm(r)
-        if state["fact"] is not None and rn <= tol.rtol:
+        if state["fact"] is not None:
             du = state["fact"].solve(-r)
-            if counter.correction_norm(du) <= tol.utol:
+            dn = counter.correction_norm(du)
+            if rn <= tol.rtol and dn <= tol.utol:
                 # converged at this iterate: it is returned as it is (the
                 # estimate ``du`` of the remaining error, below utol, is not
                 # applied), as skfem_sheet.newton.newton does, so that the
                 # sheet's continuations give that Newton's numbers
                 return rn, np.zeros_like(du), np.zeros_like(p), state["fact"], None
+            if dn <= tol.utol and dn <= 0.5 * state["last"]:
+                state["last"] = dn
+                return rn, du, np.zeros_like(p), state["fact"], None
         if state["n"] >= max_factorizations:
             raise EngineFailure("max iterations")
         J = counter.jacobian(u, p)
         fact = counter.factorize(J)
-        state["fact"], state["n"] = fact, state["n"] + 1
-        return rn, fact.solve(-r), np.zeros_like(p), fact, J
+        du = fact.solve(-r)
+        state["fact"], state["n"], state["last"] = fact, state["n"] + 1, counter.correction_norm(du)
+        return rn, du, np.zeros_like(p), fact, J
     return linearize
 
 
@@ -364,7 +383,7 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                 check=check, before_step=before_step, on_step=on_step, keep_states=False,
                 linearization=_chord_linearization, progress=progress,
                 start=(out.w[P.free], P.held(out.w[P.free], p0)),
-                guide=_Guide(guide, P) if guide and name == "L" else None)
+                guide=_Guide(guide, P) if guide and name == "L" else None, grid=step)
     fold = None
     if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
         fold = 0.5 * (b.bracket[0] + b.bracket[1])
@@ -518,6 +537,10 @@ class Bistability:
         The mesh the branches were first traced on (coarse to fine), or None.
     coarse_newton_iterations : int
         The linearisations of those coarse traces.
+    coarse_one_branch : bool
+        The coarse mesh's two branches were one, traced once (no fold on the
+        curvature-dominated one, and the gravity-first start at its end its
+        end state).
     """
 
     tip_width: float
@@ -533,6 +556,7 @@ class Bistability:
     wall_time_s: float = 0.0
     coarse_hmax: object = None
     coarse_newton_iterations: int = 0
+    coarse_one_branch: bool = False
 
     def summary(self) -> dict:
         """JSON-ready summary (the CLI's ``--json``)."""
@@ -553,6 +577,7 @@ class Bistability:
                 "one_branch": self.decreasing is self.increasing,
                 "coarse_hmax": self.coarse_hmax,
                 "coarse_newton_iterations": self.coarse_newton_iterations,
+                "coarse_one_branch": self.coarse_one_branch,
                 "wall_time_s": self.wall_time_s, "version": __version__}
 
 
@@ -603,17 +628,34 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     coarse = [None, None]
     guides = [None, None]
     start = None
+    coarse_newton = 0
     if coarse_hmax is not None:
         # the branches on the coarse mesh first: their points guide the fine
-        # ones, and the fine starts are reached from the coarse mesh too
+        # ones, and the fine starts are reached from the coarse mesh too; the
+        # gravity-dominated one is the curvature-dominated one where that has
+        # no fold and the gravity-first start at its end is its end state
+        # (_same_state, as on the fine mesh below)
         start = CoarseStart(hmax=coarse_hmax)
+        coarse_end = []
+
+        def keep_coarse_end(problem, w, length):
+            coarse_end[:] = [problem, w]
         for k, (sheet, stop, path) in enumerate(((base, hi, "curvature-first"),
                                                  (base.replace(length=hi), lo, "gravity-first"))):
             if k == 1 and flat:
                 break
+            ctwin = None
+            if k == 1 and coarse[0].fold is None and not coarse[0].reason and coarse_end:
+                ctwin = tuple(coarse_end)
             guides[k] = []
             coarse[k] = _follow("L", sheet, stop, path=path, hmax=coarse_hmax,
-                                **{**common, "layers": None}, progress=None, record=guides[k])
+                                **{**common, "layers": None}, progress=None, record=guides[k],
+                                on_point=keep_coarse_end if k == 0 else None, twin=ctwin)
+            if isinstance(coarse[k], _SameBranch):
+                coarse_newton += coarse[k].newton_iterations
+                coarse[k], guides[k] = coarse[0], guides[0]
+            else:
+                coarse_newton += coarse[k].newton_iterations
     last = []
 
     def keep_last(problem, w, length, user=on_point[0]):
@@ -653,7 +695,7 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
                        bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
                        tol, time.perf_counter() - t0, coarse_hmax,
-                       sum(c.newton_iterations for c in coarse if c is not None))
+                       coarse_newton, coarse[1] is not None and coarse[1] is coarse[0])
 
 
 class _Bar:

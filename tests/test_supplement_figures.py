@@ -187,3 +187,22 @@ def test_render_sheet_without_pyvista(drooped, tmp_path, monkeypatch):
     assert not pyvista_available()
     with pytest.raises(ParameterError, match="render"):
         render_sheet(drooped, str(tmp_path / "x.png"))
+
+
+def test_figS1_solves_on_workers_are_the_serial_solves(tmp_path):
+    """figS1_data's solves on two worker processes, the finest first, write
+    the rows the serial solves write (the same deflection: the same solve),
+    and a second call reads them back without solving."""
+    meshes = [{"hmax": 0.24, "layers": 2, "refine": 0, "role": "family"},
+              {"hmax": 0.2, "layers": 2, "refine": 0, "role": "family"}]
+    folder = tmp_path / "figS1-quick"
+    folder.mkdir()
+    todo = [(figure_s1._file(str(folder), m), m) for m in meshes]
+    figure_s1._on_workers(todo, 2, progress=False)
+    for path, m in todo:
+        row = figure_s1.load_or_compute(path, _no_solve)[0]
+        serial = figure_s1._solve_row(m)
+        assert bool(row["converged"].iloc[0])
+        assert row["deflection"].iloc[0] == pytest.approx(serial["deflection"].iloc[0],
+                                                          abs=1e-12)
+        assert int(row["dofs"].iloc[0]) == int(serial["dofs"].iloc[0])

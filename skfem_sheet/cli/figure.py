@@ -46,7 +46,8 @@ def register(subparsers) -> None:
     p.add_argument("--data-dir", default=DEFAULT_DATA_DIR,
                    help=f"folder of the cached tables (default ./{DEFAULT_DATA_DIR}/)")
     p.add_argument("--workers", type=int, default=None,
-                   help="processes for the fold map and fold curves (default: one per CPU)")
+                   help="processes for the fold map, the fold curves and figS1's solves "
+                        "(default: one per CPU; figS1 two at most)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(run=run)
 

@@ -82,10 +82,41 @@ def _solve_row(m):
                           "factorizations": r.factorizations + r.coarse_factorizations}])[_COLUMNS]
 
 
+def _solve_chunk(chunk):
+    """The solves of ``chunk`` (``(path, mesh)`` pairs), each written to its
+    cache file as :func:`figS1_data` would: a task of the worker pool."""
+    out = []
+    for path, m in chunk:
+        load_or_compute(path, lambda m=m: _solve_row(m))
+        out.append(path)
+    return out
+
+
+def _on_workers(todo, workers, progress):
+    """Solve the meshes ``todo`` (``(path, mesh)`` pairs, none cached) on
+    ``workers`` processes, the finest first (the longest: the finest family
+    mesh takes half of the paper quality's solve time), each into its cache
+    file.  A solve whose worker fails is left to the caller (solved again in
+    this process, where its error is raised)."""
+    from tqdm.auto import tqdm
+
+    from ..studies.runner import pool
+
+    order = sorted(todo, key=lambda pm: pm[1]["hmax"] / 2 ** pm[1]["refine"])
+    with tqdm(total=len(order), desc="figS1 solves", disable=not progress, leave=None) as bar:
+        for done in pool([[pm] for pm in order], min(int(workers), len(order)), _solve_chunk,
+                         lambda point, message, error: None):
+            bar.update(len(done))
+
+
 def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
-               log=None) -> pd.DataFrame:
+               log=None, workers=None) -> pd.DataFrame:
     """One row per mesh of :func:`figS1_meshes` (solved, or read from the cache).
 
+    ``workers`` (more than one): the solves not cached run on that many
+    processes, the finest first (:func:`~skfem_sheet.studies.runner.pool`);
+    None: one per CPU, at most two (at paper quality the two finest meshes'
+    solves at once take about 11 GB); 1: one after the other in this process.
     ``log``: a list to append the step's
     :class:`~skfem_sheet.figures.work.DataStep` to (the solves run now, their
     factorisations; rows cached before the column was recorded, and the
@@ -96,11 +127,17 @@ def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
     folder = data_folder(data_dir, f"figS1-{quality}")
     meshes = figS1_meshes(quality)
     t0 = time.perf_counter()
+    cached = {id(m): os.path.exists(_file(folder, m)) for m in meshes}
+    todo = [(_file(folder, m), m) for m in meshes if not cached[id(m)]]
+    if workers is None:  # two at most unless asked: the paper's two finest take about 11 GB
+        workers = min(2, os.cpu_count() or 1)
+    if int(workers) > 1 and len(todo) > 1:
+        _on_workers(todo, workers, progress)
     rows, solved = [], []
     for m in tqdm(meshes, desc="figS1 solves", disable=not progress, leave=None):
-        row, computed = load_or_compute(_file(folder, m), lambda m=m: _solve_row(m))
+        row, _ = load_or_compute(_file(folder, m), lambda m=m: _solve_row(m))
         rows.append(row)
-        if computed:
+        if not cached[id(m)]:
             solved.append((f"hmax {m['hmax']:g} refine {m['refine']}",
                            {k: row[k].iloc[0] for k in ("factorizations", "wall_time_s")
                             if k in row and pd.notna(row[k].iloc[0])}))
@@ -260,11 +297,12 @@ def draw_figS1(df, quality: str = "paper", manufactured=None):
 def figS1(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None, log=None):
     """Fig. S1: the convergence test (d/a against hmax; MMS rates beside it if recorded).
 
-    ``log``: a list to append the data step to (:func:`figS1_data`).
+    ``log``: a list to append the data step to (:func:`figS1_data`);
+    ``workers``: its solves on that many processes (see :func:`figS1_data`).
 
     Examples
     --------
     >>> figS1("quick").savefig("figS1.png", dpi=200)  # doctest: +SKIP
     """
-    return draw_figS1(figS1_data(quality, data_dir, progress, log), quality,
+    return draw_figS1(figS1_data(quality, data_dir, progress, log, workers), quality,
                       _manufactured(data_dir))
