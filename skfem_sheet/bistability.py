@@ -383,7 +383,7 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                 check=check, before_step=before_step, on_step=on_step, keep_states=False,
                 linearization=_chord_linearization, progress=progress,
                 start=(out.w[P.free], P.held(out.w[P.free], p0)),
-                guide=_Guide(guide, P) if guide and name == "L" else None, grid=step)
+                guide=_Guide(guide, P) if guide and name == "L" else None)
     fold = None
     if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
         fold = 0.5 * (b.bracket[0] + b.bracket[1])
@@ -537,10 +537,6 @@ class Bistability:
         The mesh the branches were first traced on (coarse to fine), or None.
     coarse_newton_iterations : int
         The linearisations of those coarse traces.
-    coarse_one_branch : bool
-        The coarse mesh's two branches were one, traced once (no fold on the
-        curvature-dominated one, and the gravity-first start at its end its
-        end state).
     """
 
     tip_width: float
@@ -556,7 +552,6 @@ class Bistability:
     wall_time_s: float = 0.0
     coarse_hmax: object = None
     coarse_newton_iterations: int = 0
-    coarse_one_branch: bool = False
 
     def summary(self) -> dict:
         """JSON-ready summary (the CLI's ``--json``)."""
@@ -577,7 +572,6 @@ class Bistability:
                 "one_branch": self.decreasing is self.increasing,
                 "coarse_hmax": self.coarse_hmax,
                 "coarse_newton_iterations": self.coarse_newton_iterations,
-                "coarse_one_branch": self.coarse_one_branch,
                 "wall_time_s": self.wall_time_s, "version": __version__}
 
 
@@ -628,34 +622,17 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     coarse = [None, None]
     guides = [None, None]
     start = None
-    coarse_newton = 0
     if coarse_hmax is not None:
         # the branches on the coarse mesh first: their points guide the fine
-        # ones, and the fine starts are reached from the coarse mesh too; the
-        # gravity-dominated one is the curvature-dominated one where that has
-        # no fold and the gravity-first start at its end is its end state
-        # (_same_state, as on the fine mesh below)
+        # ones, and the fine starts are reached from the coarse mesh too
         start = CoarseStart(hmax=coarse_hmax)
-        coarse_end = []
-
-        def keep_coarse_end(problem, w, length):
-            coarse_end[:] = [problem, w]
         for k, (sheet, stop, path) in enumerate(((base, hi, "curvature-first"),
                                                  (base.replace(length=hi), lo, "gravity-first"))):
             if k == 1 and flat:
                 break
-            ctwin = None
-            if k == 1 and coarse[0].fold is None and not coarse[0].reason and coarse_end:
-                ctwin = tuple(coarse_end)
             guides[k] = []
             coarse[k] = _follow("L", sheet, stop, path=path, hmax=coarse_hmax,
-                                **{**common, "layers": None}, progress=None, record=guides[k],
-                                on_point=keep_coarse_end if k == 0 else None, twin=ctwin)
-            if isinstance(coarse[k], _SameBranch):
-                coarse_newton += coarse[k].newton_iterations
-                coarse[k], guides[k] = coarse[0], guides[0]
-            else:
-                coarse_newton += coarse[k].newton_iterations
+                                **{**common, "layers": None}, progress=None, record=guides[k])
     last = []
 
     def keep_last(problem, w, length, user=on_point[0]):
@@ -695,7 +672,7 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
                        bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
                        tol, time.perf_counter() - t0, coarse_hmax,
-                       coarse_newton, coarse[1] is not None and coarse[1] is coarse[0])
+                       sum(c.newton_iterations for c in coarse if c is not None))
 
 
 class _Bar:

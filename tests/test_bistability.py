@@ -138,7 +138,6 @@ def test_coarse_to_fine_rows_agree_with_the_fine_mesh_alone(tip_width, lengths, 
     assert c2f.coarse_hmax == 0.2 and c2f.coarse_newton_iterations > 0
     summary = c2f.summary()
     assert summary["coarse_hmax"] == 0.2 and summary["one_branch"] == (not bistable)
-    assert c2f.coarse_one_branch == (not bistable)
     assert c2f.bistable == fine.bistable == bistable
     for name in ("popup_length", "standout_length"):
         a, b = getattr(fine, name), getattr(c2f, name)
@@ -159,11 +158,6 @@ def test_coarse_to_fine_rows_agree_with_the_fine_mesh_alone(tip_width, lengths, 
         # one branch, traced once; the fine mesh alone traced it twice, on two
         # meshes (their deflections differ by the mesh's, far less than 0.01)
         assert c2f.decreasing is c2f.increasing
-        # and on the coarse mesh too: less work than its two traces
-        coarse = fold_lengths(tip_width, 2.5, **{**kw, "hmax": 0.2})
-        assert c2f.coarse_one_branch and summary["coarse_one_branch"]
-        assert c2f.coarse_newton_iterations < (coarse.increasing.newton_iterations
-                                               + coarse.decreasing.newton_iterations)
         a, b = _common_lengths(fine.decreasing, c2f.increasing)
         assert len(a) >= 3 and np.abs(a - b).max() < 0.01
 

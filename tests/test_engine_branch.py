@@ -243,35 +243,3 @@ def test_guide_corrects_the_prediction_and_none_leaves_it():
     assert guided.stats.factorizations < plain.stats.factorizations
     assert [pt.iterations for pt in none.points] == [pt.iterations for pt in plain.points]
     assert [pt.u[0] for pt in none.points] == [pt.u[0] for pt in plain.points]
-
-
-def test_grid_brings_the_branch_back_onto_its_points_after_a_halved_step():
-    """``grid``: a step rejected once (here by ``check`` at lam 0.15) is
-    halved and grows back (0.125, 0.1625: as without a grid), and its first
-    full step ends on the grid ``0 + k 0.05`` (where a guide has its points)
-    instead of going on off it; without ``grid`` it stays off the grid to the
-    end."""
-    P = cubic()
-
-    def once_at(value):
-        seen = []
-
-        def check(u, p, res):
-            if abs(p[0] - value) < 1e-12 and not seen:
-                seen.append(p[0])
-                return "rejected once"
-            return ""
-        return check
-
-    kw = dict(step=0.05, locate=False, grow_after=None, max_step=0.05)
-    on = natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, grid=0.05, check=once_at(0.15), **kw)
-    off = natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, check=once_at(0.15), **kw)
-    assert on.completed and off.completed
-    np.testing.assert_allclose(on.values, [0, 0.05, 0.1, 0.125, 0.1625, 0.2, 0.25, 0.3],
-                               atol=1e-12)
-    grid = np.round(np.asarray(off.values) / 0.05) * 0.05
-    assert np.sum(np.abs(np.asarray(off.values) - grid) > 1e-9) > 2
-    np.testing.assert_allclose([pt.u[0] for pt in on.points], [root(v) for v in on.values],
-                               atol=1e-8)
-    with pytest.raises(Exception, match="grid"):
-        natural(P, np.array([1.0]), np.zeros(1), 0, 0.3, grid=0.0, **kw)

@@ -162,8 +162,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             check_inertia: bool = False, max_points: int = 10000, keep_states: bool = True,
             progress=None, growth: float = 1.5, grow_after=3, bracket=None,
             inertia_change: bool = True, check=None, before_step=None, on_step=None,
-            linearization=None, start=None, approach: int = 8, guide=None,
-            grid=None) -> Branch:
+            linearization=None, start=None, approach: int = 8, guide=None) -> Branch:
     """Natural continuation in one parameter with fold detection and location.
 
     Parameters
@@ -224,13 +223,6 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         (``u_c(p_to) - u_c(p_from) - (p_to - p_from) du_c/dp(p_from)``,
         carried over): the prediction's error is then the *difference* of
         the two branches' curvatures, and Newton starts closer.
-    grid : float, optional
-        No step of the full length ``step`` crosses a point ``p0 + k grid``
-        of the parameter: after steps were halved and grew back, the branch
-        returns onto this grid (instead of going on off it), so that its
-        points are the grid's, where a ``guide`` has its points too.  The
-        halved steps themselves (a bisection towards a fold, the way back)
-        are not shortened.
     approach : int
         At the last failed step (the branch given up), the fold is located
         with this ``approach`` (:func:`~skfem_sheet.engine.fold.locate_fold`:
@@ -266,10 +258,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     growth = check_range("growth", growth, 1.0, None)
     end_at = min_step if bracket is None else check_range("bracket", bracket, min_step, None)
     approach = int(check_range("approach", approach, 0, 1000))
-    if grid is not None:
-        grid = check_range("grid", grid, 0, None, lo_open=True)
     direction = 1.0 if stop >= p[i] else -1.0
-    origin = float(p[i])
 
     def finish(points, folds=(), completed=False, reason="", bracket=()):
         return Branch(tuple(points), i, tuple(folds), completed, reason, bracket,
@@ -287,13 +276,6 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     dudp = None
     while (stop - p[i]) * direction > 1e-14 and len(points) < max_points:
         lam_try = p[i] + direction * min(h, abs(stop - p[i]))
-        if grid is not None and h >= step * (1 - 1e-12):
-            # a full step not beyond the next point of the grid (a shorter one
-            # is a bisection's, or the way back to full steps, left as it is)
-            ahead = origin + direction * grid * (
-                np.floor((p[i] - origin) * direction / grid + 1e-9) + 1)
-            if (lam_try - ahead) * direction > 0:
-                lam_try = ahead
         try:
             if before_step is not None:
                 moved = before_step(u, p, lam_try, fact)
