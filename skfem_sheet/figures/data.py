@@ -22,6 +22,7 @@ import pandas as pd
 
 from ..params import ParameterError
 from ..studies import foldmap
+from ..studies.runner import pool
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .work import DataStep, note
@@ -29,7 +30,8 @@ from .work import DataStep, note
 __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "branch_snapped",
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
-           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step"]
+           "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step",
+           "on_workers"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
@@ -148,6 +150,16 @@ def _unit_name(row) -> str:
     if row["second"] == "curvature":
         return f"b/a {float(row['tip_width']):g} in a/R"
     return f"a/R {float(row['curvature']):g}"
+
+
+def on_workers(chunks, workers, task):
+    """``task(chunk)`` for each of ``chunks`` on ``workers`` spawned processes
+    (the studies' pool, :func:`~skfem_sheet.studies.runner.pool`), yielding
+    each chunk's list of results as it finishes; a point whose worker failed
+    is None in it (the caller computes it again in its own process, where
+    the error is raised).  The figures' one door to the worker pool, as this module
+    is to the studies."""
+    yield from pool(chunks, int(workers), task, lambda point, message, error: None)
 
 
 def study_step(what, df, stats, counter, wall_time_s) -> DataStep:

@@ -45,6 +45,7 @@ from ..params import ParameterError, Sheet
 from ..solve import solve
 from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
+from .data import on_workers
 from .style import COLUMN_WIDTH, FULL_WIDTH, fmt, mesh_footnote, panel_label, styled_figure
 from .work import note, solves_step
 
@@ -100,12 +101,10 @@ def _on_workers(todo, workers, progress):
     this process, where its error is raised)."""
     from tqdm.auto import tqdm
 
-    from ..studies.runner import pool
-
     order = sorted(todo, key=lambda pm: pm[1]["hmax"] / 2 ** pm[1]["refine"])
     with tqdm(total=len(order), desc="figS1 solves", disable=not progress, leave=None) as bar:
-        for done in pool([[pm] for pm in order], min(int(workers), len(order)), _solve_chunk,
-                         lambda point, message, error: None):
+        for done in on_workers([[pm] for pm in order], min(int(workers), len(order)),
+                               _solve_chunk):
             bar.update(len(done))
 
 
@@ -114,7 +113,7 @@ def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
     """One row per mesh of :func:`figS1_meshes` (solved, or read from the cache).
 
     ``workers`` (more than one): the solves not cached run on that many
-    processes, the finest first (:func:`~skfem_sheet.studies.runner.pool`);
+    processes, the finest first (:func:`~skfem_sheet.figures.data.on_workers`);
     None: one per CPU, at most two (at paper quality the two finest meshes'
     solves at once take about 11 GB); 1: one after the other in this process.
     ``log``: a list to append the step's
