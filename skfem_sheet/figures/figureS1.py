@@ -114,8 +114,10 @@ def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
 
     ``workers`` (more than one): the solves not cached run on that many
     processes, the finest first (:func:`~skfem_sheet.figures.data.on_workers`);
-    None: one per CPU, at most two (at paper quality the two finest meshes'
-    solves at once take about 11 GB); 1: one after the other in this process.
+    None: one per CPU, at most two (at paper quality the finest solve alone
+    peaks at 6.1 GB, and the two finest at once about 10 GB, estimated from
+    their unknowns, not measured as a sum); 1: one after the other in this
+    process.
     ``log``: a list to append the step's
     :class:`~skfem_sheet.figures.work.DataStep` to (the solves run now, their
     factorisations; rows cached before the column was recorded, and the
@@ -126,17 +128,19 @@ def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
     folder = data_folder(data_dir, f"figS1-{quality}")
     meshes = figS1_meshes(quality)
     t0 = time.perf_counter()
-    cached = {id(m): os.path.exists(_file(folder, m)) for m in meshes}
-    todo = [(_file(folder, m), m) for m in meshes if not cached[id(m)]]
-    if workers is None:  # two at most unless asked: the paper's two finest take about 11 GB
+    files = [_file(folder, m) for m in meshes]
+    cached = [os.path.exists(f) for f in files]
+    todo = [(f, m) for f, m, c in zip(files, meshes, cached) if not c]
+    if workers is None:  # two at most unless asked (memory: see above)
         workers = min(2, os.cpu_count() or 1)
     if int(workers) > 1 and len(todo) > 1:
         _on_workers(todo, workers, progress)
     rows, solved = [], []
-    for m in tqdm(meshes, desc="figS1 solves", disable=not progress, leave=None):
-        row, _ = load_or_compute(_file(folder, m), lambda m=m: _solve_row(m))
+    for f, m, c in tqdm(list(zip(files, meshes, cached)), desc="figS1 solves",
+                        disable=not progress, leave=None):
+        row, _ = load_or_compute(f, lambda m=m: _solve_row(m))
         rows.append(row)
-        if not cached[id(m)]:
+        if not c:
             solved.append((f"hmax {m['hmax']:g} refine {m['refine']}",
                            {k: row[k].iloc[0] for k in ("factorizations", "wall_time_s")
                             if k in row and pd.notna(row[k].iloc[0])}))
