@@ -155,6 +155,9 @@ class _SheetNewton(Problem):
         self.residuals = []
         self.previous = None  # the previous linearisation point (MIP reference)
         self.exact = True  # whether the last factorisation is the exact tangent's
+        self.factorized = False  # whether this solve has factorised a tangent yet
+        self.last_correction = np.inf  # the last correction's norm
+        self.chord = None  # (state, correction): a chord step at that state
 
     def evaluate(self, w):
         """The residual at ``w`` if ``w`` is admissible (no inverted element,
@@ -183,6 +186,14 @@ class _SheetNewton(Problem):
         rn = float(np.linalg.norm(r[self.free]))
         if not np.isfinite(rn):
             raise EngineFailure("NaN in the residual")
+        if self.chord is not None and self.chord[0] is w:
+            # a chord step (see converged): the last factorisation's correction
+            du = self.chord[1]
+            self.chord = None
+            self.last_correction = self.correction_norm(du)
+            self.stats.newton_iterations += 1
+            return rn, du, np.zeros(1), self.solver, None
+        self.chord = None
         ref = self.previous if self.options.linearization == "mip" else None
         if ref is not None and not (np.abs(w[: self.problem.nu_dof] - ref[: self.problem.nu_dof]).max()
                                     > self.options.mip_threshold):
@@ -197,21 +208,41 @@ class _SheetNewton(Problem):
             raise EngineFailure(f"singular tangent ({err})") from None
         self.stats.factorizations += 1
         self.stats.newton_iterations += 1
+        self.factorized = True
         if not np.all(np.isfinite(delta)):
             raise EngineFailure("NaN in the Newton increment")
         du = np.zeros_like(w)
         du[self.free] = delta
+        self.last_correction = self.correction_norm(du)
         return rn, du, np.zeros(1), self.solver, None
 
     def converged(self, w, p, fact, extra):
         """Small residual at ``w`` and a small simplified-Newton correction
-        there (a back-substitution with the factorisation at hand)."""
+        there (a back-substitution with the factorisation at hand).
+
+        Where the residual is still above ``rtol`` but that correction is
+        below ``utol`` and at most half the last one (the iteration
+        contracts), the next iteration takes it as it is, with the
+        factorisation at hand (a chord step), instead of factorising the
+        tangent at ``w``: a thin sheet one correction of 1e-4 a from its
+        equilibrium still has residuals above ``rtol`` in the stiff membrane
+        directions, which the factorisation at a state that close removes
+        as well as a new one (the same rule as the continuation in L,
+        :func:`skfem_sheet.bistability._chord_linearization`; measured in
+        ``benchmarks/results/speed/solve_sample_hmax0.03_chord.txt``)."""
         r = self.last[1]
         rn = float(np.linalg.norm(r[self.free]))
         self.residuals.append(rn)
-        if rn > self.options.rtol * self.rref:
-            return False
-        return float(np.abs(self.back_solve(r)[self.nu_free]).max()) <= self.options.utol
+        delta = self.back_solve(r)
+        dn = float(np.abs(delta[self.nu_free]).max())
+        if rn <= self.options.rtol * self.rref:
+            return dn <= self.options.utol
+        if (self.factorized and np.all(np.isfinite(delta)) and dn <= self.options.utol
+                and dn <= 0.5 * self.last_correction):
+            du = np.zeros_like(w)
+            du[self.free] = delta
+            self.chord = (w, du)
+        return False
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
@@ -238,7 +269,10 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     Convergence: ``||r_free|| <= rtol ||f_gravity||`` and the next correction
     is below ``utol``.  The next correction is estimated by a simplified Newton
     step ``-K^{-1} r`` with the factorisation at hand (a back-substitution), so
-    no factorisation is spent only to confirm convergence.
+    no factorisation is spent only to confirm convergence; where that
+    correction is below ``utol`` and at most half the last one but the
+    residual is still above ``rtol``, it is applied as it is (a chord step,
+    counted as an iteration, not a factorisation).
 
     Parameters
     ----------

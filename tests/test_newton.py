@@ -110,6 +110,33 @@ def test_mip_newton_converges_to_the_exact_newton_state_and_leaves_the_hessian()
     assert ends["mip"][1] == stability(problem, check) == ends["exact"][1]
 
 
+def test_a_chord_step_takes_the_residual_left_after_a_correction_below_utol():
+    """From an equilibrium moved by 1e-3 a, the second correction is below
+    utol while the residual there is still above rtol: the third iteration
+    reuses the last factorisation (a chord step) instead of a new one, and
+    the state converges to the equilibrium as Newton's would (to 1e-8, a
+    hundredth of utol); the factorisation left is the Hessian's inertia."""
+    problem = _flat_problem()
+    solver = make_linear_solver("auto")
+    path = follow_path(problem, "curvature-first", problem.sheet.curvature, solver)
+    tight = NewtonOptions(utol=1e-12, rtol=1e-10, max_iterations=40, linearization="exact")
+    ref = newton(problem, path.w, 1.0, solver, tight, Stats())
+    assert ref.converged
+    inertia = stability(problem, solver)
+    opts = NewtonOptions(linearization="exact")
+    w = ref.w.copy()
+    w[problem.free[problem.free < problem.nu_dof]] += 1e-3
+    stats = Stats()
+    res = newton(problem, w, 1.0, solver, opts, stats)
+    assert res.converged and res.iterations == 3 and stats.factorizations == 2
+    # the chord step: its correction below utol, the residual before it above rtol
+    rref = np.linalg.norm(problem.gravity_load[problem.free])
+    assert res.corrections[2] <= opts.utol < res.corrections[1]
+    assert res.residuals[2] > opts.rtol * rref >= res.residuals[3]
+    assert np.abs(res.w - ref.w)[: problem.nu_dof].max() <= 1e-8
+    assert stability(problem, solver) == inertia
+
+
 def test_bad_linearization_raises():
     with pytest.raises(ParameterError, match="linearization"):
         NewtonOptions(linearization="secant")
