@@ -207,6 +207,31 @@ def test_fold_on_branch_stops_at_the_stated_load_tolerance():
     assert counts[1e-3] < counts[1e-12]
 
 
+def test_fold_on_branch_gives_up_at_a_minimum_of_the_load_rate_and_follows_an_overshoot():
+    """Newton on ``g = dp/dc = 0`` along a branch whose rate has a positive
+    minimum and no zero, ``lam = u^3/3 + u/5`` (``g = u^2 + 1/5``): the
+    sections straddle the minimum, ``g'`` alternating, ``g`` not shrinking;
+    the search stops there instead of running to ``max_iterations``.  On the
+    softening spring ``u - u^3/3 = lam`` from ``u = 0.3`` the first step
+    overshoots the fold at ``u = 1`` (``|g|`` grows, its sign changes) and
+    Newton still converges to it."""
+    P = FunctionProblem(lambda u, p: p[0] - u**3 / 3 - u / 5,
+                        lambda u, p: np.diag(-(u**2 + 0.2)), ("lam",))
+    for u0 in (0.3, 1.0, -0.5):
+        c = Counting(P)
+        f, res = engine.fold.fold_on_branch(c, np.array([u0]), np.array([u0**3 / 3 + u0 / 5]),
+                                            "lam", np.ones(1))
+        assert f is None and "does not contract" in res.reason
+        # at most four section solves (of two or three Newton steps each),
+        # where max_iterations (12) would have spent thirteen
+        assert c.stats().factorizations <= 12
+    S = FunctionProblem(lambda u, p: u - u**3 / 3 - p[0],
+                        lambda u, p: np.diag(1 - u**2), ("lam",))
+    f, res = engine.fold.fold_on_branch(Counting(S), np.array([0.3]),
+                                        np.array([0.3 - 0.3**3 / 3]), "lam", np.ones(1))
+    assert f is not None and abs(f.value - 2.0 / 3.0) <= 1e-9
+
+
 @pytest.mark.parametrize("one_sided", [False, True])
 def test_sigma_derivatives_from_residuals_are_the_exact_third_derivatives(one_sided):
     # E = u1^4/4 + p0 u1 u2^2 + p1 u2^3/3: R = grad E is cubic in u and linear
