@@ -155,7 +155,6 @@ class _SheetNewton(Problem):
         self.residuals = []
         self.previous = None  # the previous linearisation point (MIP reference)
         self.exact = True  # whether the last factorisation is the exact tangent's
-        self.factorized = False  # whether this solve has factorised a tangent yet
         self.last_correction = np.inf  # the last correction's norm
         self.chord = None  # (state, correction): a chord step at that state
 
@@ -208,7 +207,6 @@ class _SheetNewton(Problem):
             raise EngineFailure(f"singular tangent ({err})") from None
         self.stats.factorizations += 1
         self.stats.newton_iterations += 1
-        self.factorized = True
         if not np.all(np.isfinite(delta)):
             raise EngineFailure("NaN in the Newton increment")
         du = np.zeros_like(w)
@@ -237,7 +235,7 @@ class _SheetNewton(Problem):
         dn = float(np.abs(delta[self.nu_free]).max())
         if rn <= self.options.rtol * self.rref:
             return dn <= self.options.utol
-        if (self.factorized and np.all(np.isfinite(delta)) and dn <= self.options.utol
+        if (np.all(np.isfinite(delta)) and dn <= self.options.utol
                 and dn <= 0.5 * self.last_correction):
             du = np.zeros_like(w)
             du[self.free] = delta
