@@ -646,3 +646,82 @@ def test_figures_package_has_no_argparse_and_one_door_to_the_studies():
     # the command line calls make_figure with these arguments
     assert list(inspect.signature(figures.make_figure).parameters) == [
         "name", "quality", "out", "data_dir", "progress", "workers", "log"]
+
+
+# -- fig6's rows below the cusp: traced on the fine mesh around their transition ---------------
+#: The toy transition of each (b/a, a/R) on the fine mesh, and how far the coarse one lies
+#: from it: 0.02 (inside the window), 0.35 (the fine transition outside the window).
+_TOY_TRANSITION = {(0.3, 5.0): (1.71, 0.02), (0.1, 5.0): (1.9, 0.35), (0.4, 5.0): (1.8, 0.0),
+                   (0.5, 5.0): (1.65, 0.0)}
+
+
+def _toy_transition_row(point):
+    """A monotone row, d(L) rising through one steep part at the toy transition
+    (shifted on the coarse mesh); the coarse (0.5, 5) row has a fold."""
+    b, c = float(point["tip_width"]), float(point["curvature"])
+    t, shift = _TOY_TRANSITION[(b, c)]
+    coarse = float(point["hmax"]) >= 0.1
+    t += shift if coarse else 0.0
+    lo, hi, h = (float(point[k]) for k in ("length_min", "length_max", "step"))
+    L = np.round(lo + h * np.arange(round((hi - lo) / h) + 1), 9)
+    d = 0.5 * (1 + np.tanh((L - t) / 0.15))
+    rec = foldmap._empty_record(dict(point), foldmap._key(point))
+    rec.update(curvature_dominated=_curve(L, d), gravity_dominated=_curve(L[::-1], d[::-1]),
+               converged=True, newton_iterations=10, wall_time_s=1.0,
+               curvature_dominated_snapped=False, gravity_dominated_snapped=False)
+    if coarse and (b, c) == (0.5, 5.0):
+        rec.update(popup_length=t, standout_length=t)
+    rec["transition_length"] = foldmap.transition_length(rec)
+    return rec
+
+
+def test_transition_rows_trace_the_fine_mesh_around_the_coarse_transition(tmp_path,
+                                                                           monkeypatch):
+    calls = []
+
+    def fake(point):
+        calls.append((point["tip_width"], point["hmax"], point["length_min"],
+                      point["length_max"]))
+        return _toy_transition_row(point)
+
+    monkeypatch.setattr(foldmap, "_run_map_point", fake)
+    pts = figure_data.map_grid_points("paper", lambda c, b: c == 5.0
+                                      and b in (0.1, 0.3, 0.4, 0.5))
+    assert [p["tip_width"] for p in pts] == [0.1, 0.3, 0.4, 0.5]
+    full = [p for p in pts if p["tip_width"] == 0.4]
+    df = figure_data.transition_rows(pts, "paper", str(tmp_path), progress=False, workers=1,
+                                     full=full)
+    rows = {float(r.tip_width): r for _, r in df.iterrows()}
+    # b 0.3: windowed around the coarse 1.73 on the grid of the whole row, and its
+    # transition is the whole row's (the same steepest interval of the same grid)
+    assert (rows[0.3].length_min, rows[0.3].length_max) == (1.5, 1.95)
+    whole = _toy_transition_row({**pts[1]})
+    assert foldmap.transition_length(rows[0.3]) == foldmap.transition_length(whole)
+    # b 0.1: the fine steepest interval at the window's edge -> the whole row
+    # b 0.4: drawn whole elsewhere -> the whole row, no coarse row
+    # b 0.5: a fold on the coarse mesh -> the whole row
+    for b in (0.1, 0.4, 0.5):
+        assert (rows[b].length_min, rows[b].length_max) == (0.5, 3.0)
+    assert (0.4, 0.1, 0.5, 3.0) not in calls
+    assert [c for c in calls if c[0] == 0.3] == [(0.3, 0.1, 0.5, 3.0), (0.3, 0.03, 1.5, 1.95)]
+    assert [c[1:] for c in calls if c[0] == 0.1] == [(0.1, 0.5, 3.0), (0.03, 2.0, 2.45),
+                                                     (0.03, 0.5, 3.0)]
+    # a second call computes nothing again (every row is journalled)
+    calls.clear()
+    again = figure_data.transition_rows(pts, "paper", str(tmp_path), progress=False, workers=1,
+                                        full=full)
+    assert calls == [] and list(again.key) == list(df.key)
+
+
+def test_transition_rows_of_the_quick_quality_are_the_whole_rows(tmp_path, monkeypatch):
+    """Without a coarser mesh (hmax 0.1) nothing is windowed."""
+    calls = []
+
+    def fake(point):
+        calls.append(point["hmax"])
+        return _toy_transition_row(point)
+
+    monkeypatch.setattr(foldmap, "_run_map_point", fake)
+    pts = figure_data.map_grid_points("quick", lambda c, b: c == 5.0 and b == 0.4)
+    df = figure_data.transition_rows(pts, "quick", str(tmp_path), progress=False, workers=1)
+    assert calls == [0.1] and (df.length_min[0], df.length_max[0]) == (0.5, 3.0)

@@ -31,7 +31,7 @@ __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "bran
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
            "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step",
-           "on_workers"]
+           "on_workers", "TRANSITION_WINDOW", "transition_window", "transition_rows"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
@@ -44,6 +44,14 @@ CURVE_CURVATURES = {q: tuple(float(x) for x in np.round(np.arange(1.0, 5.0001, 0
 RECTANGLE_CURVE_FROM = 2.5
 
 _MODES = ("curvature_dominated", "gravity_dominated")
+
+#: Half-width (L/a) of the lengths a point's transition is traced over on its
+#: own mesh, around the transition on the coarse mesh (:func:`transition_rows`).
+#: It sets only the cost: a windowed row whose steepest interval is not inside
+#: its window is replaced by the whole row.  (Measured at hmax 0.03 from 0.1,
+#: b/a 0.55 at a/R 2.5 and 0.3 at a/R 5: the coarse and the fine transitions
+#: were the same, 1.25078125 and 1.7125, and so were the windowed rows'.)
+TRANSITION_WINDOW = 0.2
 
 
 # -- points and the table ------------------------------------------------------------------
@@ -97,6 +105,103 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     note(log, study_step("fold map", df, df.attrs["fold_map"], "newton_iterations",
                          time.perf_counter() - t0))
     return df
+
+
+def transition_window(point, transition: float, half_width: float = TRANSITION_WINDOW):
+    """The lengths ``(lo, hi)`` within ``half_width`` of ``transition`` on the
+    point's grid of lengths (``length_min + k step``), cut to its range.
+
+    Examples
+    --------
+    >>> transition_window({"length_min": 0.5, "length_max": 3.0, "step": 0.05}, 1.7125)
+    (1.5, 1.95)
+    >>> transition_window({"length_min": 0.5, "length_max": 3.0, "step": 0.05}, 0.6)
+    (0.5, 0.8)
+    """
+    L0, L1, h = float(point["length_min"]), float(point["length_max"]), float(point["step"])
+    lo = L0 + h * math.floor((transition - half_width - L0) / h + 1e-9)
+    hi = L0 + h * math.ceil((transition + half_width - L0) / h - 1e-9)
+    return round(max(L0, lo), 9), round(min(L1, hi), 9)
+
+
+def _has_fold(row) -> bool:
+    return any(np.isfinite(_float(row[k])) for k in ("standout_length", "popup_length"))
+
+
+def _inside_window(row, point) -> bool:
+    """Whether a windowed row gives its point's transition: usable, without a
+    fold, and its steepest interval of d(L) inside the window (or at an end
+    of the point's whole range): then the whole branch, whose d(L) rises
+    through one steep part, has it there too."""
+    if not usable(row) or as_bool([row["bistable"]])[0] or _has_fold(row):
+        return False
+    L, d, _ = foldmap.branch_curve(row)
+    if len(L) < 3:
+        return False
+    i = int(np.argmax(np.diff(d) / np.diff(L)))
+    return ((i > 0 or L[0] <= float(point["length_min"]) + 1e-9)
+            and (i < len(L) - 2 or L[-1] >= float(point["length_max"]) - 1e-9))
+
+
+def transition_rows(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True,
+                    workers=None, log=None, full=()):
+    """Fold-map rows that give the transition length of each of ``points``
+    (Fig. 6's markers where the transition is continuous).
+
+    :func:`~skfem_sheet.studies.foldmap.transition_length` reads one number
+    from such a row, the middle of the steepest interval of d(L) on the
+    curvature-dominated branch, and that needs the branch on the fine mesh
+    only around it.  So each point is first computed on the coarse mesh its
+    branches are guided by (:func:`~skfem_sheet.studies.foldmap.row_coarse_hmax`:
+    its whole range of lengths, the same step), and then on its own mesh
+    over the lengths within :data:`TRANSITION_WINDOW` of the coarse
+    transition, on the same grid of lengths (:func:`transition_window`).  A
+    windowed row serves where its steepest interval lies inside its window
+    and it has no fold; otherwise -- and for points with a fold on the
+    coarse mesh, points in ``full`` (drawn whole by another figure) or
+    without a coarser mesh (the quick quality) -- the point's whole row is
+    used.  Every row is a point of the quality's fold-map table (journalled,
+    resumable).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per point, in order (the windowed ones with their window
+        as ``length_min``, ``length_max``).
+    """
+    points = list(points)
+    keep = {foldmap.map_key(p) for p in full}
+    whole = [foldmap.row_coarse_hmax(p["hmax"]) is None or foldmap.map_key(p) in keep
+             for p in points]
+    coarse_at = [k for k, w in enumerate(whole) if not w]
+    chosen = [None] * len(points)
+    if coarse_at:
+        coarse = fold_map_table([{**points[k], "hmax": foldmap.row_coarse_hmax(points[k]["hmax"])}
+                                 for k in coarse_at], quality, data_dir, progress, workers, log)
+        windowed = []
+        for k, (_, row) in zip(coarse_at, coarse.iterrows()):
+            t = foldmap.transition_length(row) if usable(row) else None
+            if t is None or _has_fold(row):
+                whole[k] = True
+            else:
+                lo, hi = transition_window(points[k], t)
+                windowed.append((k, {**points[k], "length_min": lo, "length_max": hi}))
+        if windowed:
+            fine = fold_map_table([p for _, p in windowed], quality, data_dir, progress, workers,
+                                  log)
+            for (k, _), (_, row) in zip(windowed, fine.iterrows()):
+                if _inside_window(row, points[k]):
+                    chosen[k] = row
+                else:
+                    whole[k] = True
+    rest = [k for k, w in enumerate(whole) if w]
+    if rest:
+        df = fold_map_table([points[k] for k in rest], quality, data_dir, progress, workers, log)
+        for k, (_, row) in zip(rest, df.iterrows()):
+            chosen[k] = row
+    if not points:
+        return pd.DataFrame(columns=list(foldmap.MAP_COLUMNS))
+    return pd.DataFrame([r.to_dict() for r in chosen]).reset_index(drop=True)
 
 
 def figure_method(method=None) -> str:

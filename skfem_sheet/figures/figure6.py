@@ -7,7 +7,9 @@ finite-element modes exist and the FE bistable region.  By default
 (``method="curves"``) the bistable region is the traced fold curve of each
 a/R (L1*, the cusp, L0*) and the markers above the cusp come from it; only
 the shape factors below the cusp, where the transition is continuous, take a
-fold-map point each.  ``method="grid"``: everything from the fold map (the
+fold-map point each -- traced on the fine mesh only around its transition
+where fig2 and fig4 do not draw that row whole
+(:func:`~skfem_sheet.figures.data.transition_rows`).  ``method="grid"``: everything from the fold map (the
 reference).
 
 Examples
@@ -38,8 +40,11 @@ from .data import (
     foldmap,
     map_grid_points,
     select_rows,
+    transition_rows,
     usable,
 )
+from .figure2 import fig2_points
+from .figure4 import fig4_points
 from .style import (
     COLUMN_WIDTH,
     FOLD_ACCURACY,
@@ -346,6 +351,9 @@ def fig6(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None
         cusp[c] = lines["tip"][0] if lines is not None else np.inf
     pts = map_grid_points(quality, lambda c, b: c in _FIG6_CURVATURES
                           and b <= cusp.get(float(c), np.inf))
-    fe = (fold_map_table(pts, quality, data_dir, progress, workers, log) if pts
-          else pd.DataFrame(columns=list(foldmap.MAP_COLUMNS)))
+    # below the cusps only the transition length of each row is drawn: the
+    # rows that fig2 and fig4 draw whole are taken whole, the others traced
+    # on the fine mesh only around their transition
+    fe = transition_rows(pts, quality, data_dir, progress, workers, log,
+                         full=fig2_points(quality) + fig4_points(quality))
     return draw_fig6(fe, rom, quality, mode_lengths=Lm, curves=curves)

@@ -63,7 +63,7 @@ from .runner import (
     typed_frame,
 )
 
-__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "fold_map", "row_coarse_hmax",
+__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "fold_map", "row_coarse_hmax",
            "branch_curve", "transition_length", "modes", "critical_tip_width",
            "CURVE_PARAMETERS", "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves",
            "critical_curve"]
@@ -106,9 +106,20 @@ def _normalize(point) -> dict:
     return normalize_params(point, MAP_PARAMETERS, _NUMERIC, "map point")
 
 
-def _key(point) -> str:
+def map_key(point) -> str:
+    """The journal key of a map point: its parameters, normalised, hashed (two
+    points with the same key are the same computation, one row of a table).
+
+    Examples
+    --------
+    >>> map_key(map_points([1.0], [2.5])[0]) == map_key(dict(tip_width=1, curvature=2.5))
+    True
+    """
     p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
     return hash_key(["fold-map", *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
+
+
+_key = map_key
 
 
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
