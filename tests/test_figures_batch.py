@@ -167,7 +167,10 @@ def test_figure_all_draws_every_figure_and_sums_the_stand_ins(stand_ins, tmp_pat
     data, out = tmp_path / "data", tmp_path / "out"
     runs = figures.make_all("quick", out, data, progress=False, workers=1)
     names = [r.name for r in runs]
-    assert sorted(names) == sorted(figures.FIGURES) and names.index("fig7") < names.index("fig6")
+    # fig2's and fig4's rows first, in one batch; then every figure
+    assert names[0] == "fig2+fig4-rows" and runs[0].out == ""
+    assert sorted(names[1:]) == sorted(figures.FIGURES)
+    assert names.index("fig7") < names.index("fig6")
     assert not [r.error for r in runs if r.error]
     for name in figures.FIGURES:
         assert (out / f"{name}.png").read_bytes()[:8] == PNG_MAGIC
@@ -185,10 +188,13 @@ def test_figure_all_draws_every_figure_and_sums_the_stand_ins(stand_ins, tmp_pat
     assert by["fig3"].solves == 6 and by["fig3"].factorizations == 6 * COST["fig3"]
     assert by["figS1"].factorizations == n["figS1"] * COST["figS1"]
     # shared data: fig5's map points are fig2's, fig6's two curves are among fig7's 18
-    assert _step(by["fig2"], "fold map").computed == 8
+    # fig4's b/a = 0, 1 rows are fig2's: 8 + 12 - 4 rows in the batch, which the figures read
+    assert _step(by["fig2+fig4-rows"], "fold map").computed == 16
+    assert _step(by["fig2+fig4-rows"], "fold map").factorizations == 16 * COST["map"]
+    assert (_step(by["fig2"], "fold map").computed, _step(by["fig2"], "fold map").cached) == (0, 8)
     assert _step(by["fig5"], "fold map").computed == 0
     assert _step(by["fig5"], "fold map").cached == 4
-    assert _step(by["fig4"], "fold map").computed == 8  # b/a = 0, 1 are fig2's
+    assert (_step(by["fig4"], "fold map").computed, _step(by["fig4"], "fold map").cached) == (0, 12)
     assert _step(by["fig7"], "fold curves").computed == 18
     assert _step(by["fig7"], "fold curves").factorizations == 18 * COST["curve"]
     assert _step(by["fig7"], "fold curves").longest == "a/R 5 (5 s)"

@@ -7,7 +7,9 @@ fig4's b/a = 0 and 1 rows are fig2's, fig6's rows below the cusps partly
 fig2's and fig4's) and the fold-curve table (fig6's two curves, a/R = 2.5 and
 5, are two of fig7's 18).  fig7 is drawn before fig6 (:func:`run_order`), so
 that all 18 curves are traced in one batch over the workers, longest first,
-instead of fig6's two first and the other 16 after them.  fig3, figS1, figS3
+instead of fig6's two first and the other 16 after them; likewise fig2's and
+fig4's rows are computed in one batch before fig2 is drawn
+(:data:`SHARED_ROWS`).  fig3, figS1, figS3
 and figS4 keep their own solves; the ribbon curves of fig5 and the ribbon map
 of fig6 are on different length grids and are not shared.
 
@@ -38,13 +40,25 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
+from .data import fold_map_table, foldmap
+from .figure2 import fig2_points
+from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
 from .work import FigureRun, summary_json, summary_text
 
-__all__ = ["make_all", "run_order", "SUMMARY_FILES"]
+__all__ = ["make_all", "run_order", "SHARED_ROWS", "SUMMARY_FILES"]
 
 #: The summary's files in the output folder: the text table and the JSON.
 SUMMARY_FILES = ("summary.txt", "summary.json")
+
+#: Figures whose fold-map rows are computed in one batch before the first of
+#: them is drawn, where both are (fig5's rows are fig2's): one batch over the
+#: workers, the most expensive rows first, instead of one per figure, each
+#: ending with a worker idle while the other finishes its last row.  Its
+#: entry in the summary is named after them (``"fig2+fig4-rows"``); the
+#: figures then read their rows.
+SHARED_ROWS = ("fig2", "fig4")
+_POINTS = {"fig2": fig2_points, "fig4": fig4_points}
 
 
 def run_order(names) -> list:
@@ -67,6 +81,29 @@ def _out_folder(out_dir) -> str:
     if not os.access(out_dir, os.W_OK):
         raise ParameterError(f"out_dir must be a writable folder, got {out_dir!r}")
     return out_dir
+
+
+def _shared_rows(names, quality, data_dir, progress, workers):
+    """The rows of :data:`SHARED_ROWS` in one fold-map batch, as a summary
+    entry (None unless all of them are in ``names``); an exception becomes
+    the entry's error (each figure then computes what it misses)."""
+    if not all(n in names for n in SHARED_ROWS):
+        return None
+    points, seen = [], set()
+    for name in SHARED_ROWS:
+        for p in _POINTS[name](quality):
+            if foldmap.map_key(p) not in seen:
+                seen.add(foldmap.map_key(p))
+                points.append(p)
+    log = []
+    t0 = time.perf_counter()
+    entry = "+".join(SHARED_ROWS) + "-rows"
+    try:
+        fold_map_table(points, quality, data_dir, progress, workers, log)
+    except Exception as err:  # recorded in the summary; the figures go on
+        return FigureRun(entry, "", time.perf_counter() - t0, tuple(log),
+                         f"{type(err).__name__}: {err}")
+    return FigureRun(entry, "", time.perf_counter() - t0, tuple(log))
 
 
 def _draw(name, quality, out, data_dir, progress, workers) -> FigureRun:
@@ -107,7 +144,8 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     Returns
     -------
     tuple of FigureRun
-        One per figure, in the order drawn (a failed one has its ``error``).
+        One per figure, in the order drawn (a failed one has its ``error``),
+        after the batch of :data:`SHARED_ROWS` where those figures are drawn.
 
     Raises
     ------
@@ -139,6 +177,9 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
+        shared = _shared_rows(names, quality, data_dir, progress, workers)
+        if shared is not None:
+            runs.append(shared)
         for name in run_order(names):
             bar.set_postfix_str(name)
             runs.append(_draw(name, quality, os.path.join(out_dir, f"{name}.png"), data_dir,
