@@ -64,7 +64,7 @@ def synthetic_row(point):
     b, c = float(point["tip_width"]), float(point["curvature"])
     lo, hi = float(point["length_min"]), float(point["length_max"])
     L = np.round(np.arange(lo, hi + 1e-9, 0.1), 6)
-    rec = foldmap._empty_record(dict(point), foldmap._key(point))
+    rec = foldmap._empty_record(dict(point), foldmap.map_key(point))
     folds = _folds(b, c)
     if folds is not None:
         L0, L1 = folds
@@ -147,15 +147,15 @@ def _xs(lines):
 
 # -- points and caching -----------------------------------------------------------------------
 def test_points_are_the_issues_map_points():
-    keys = {foldmap._key(p) for c, bs in ISSUE_GRID.items()
+    keys = {foldmap.map_key(p) for c, bs in ISSUE_GRID.items()
             for p in foldmap.map_points(bs, [c], lengths=(0.5, 3.0), hmax=0.1)}
     quick = figures.map_grid_points("quick")
-    assert {foldmap._key(p) for p in quick} == keys and len(quick) == len(keys) == 49
+    assert {foldmap.map_key(p) for p in quick} == keys and len(quick) == len(keys) == 49
     for fn in (figures.fig2_points, figures.fig4_points, figures.fig5_points,
                figures.fig6_points, figures.fig7_points):
-        assert {foldmap._key(p) for p in fn("quick")} <= keys
+        assert {foldmap.map_key(p) for p in fn("quick")} <= keys
         paper = fn("paper")
-        assert {foldmap._key(p) for p in paper} <= {foldmap._key(p)
+        assert {foldmap.map_key(p) for p in paper} <= {foldmap.map_key(p)
                                                     for p in figures.map_grid_points("paper")}
         assert {(p["hmax"], p["step"]) for p in paper} == {(0.03, 0.05)}
     assert {(p["curvature"], p["tip_width"]) for p in figures.fig2_points()} == {
@@ -665,7 +665,7 @@ def _toy_transition_row(point):
     lo, hi, h = (float(point[k]) for k in ("length_min", "length_max", "step"))
     L = np.round(lo + h * np.arange(round((hi - lo) / h) + 1), 9)
     d = 0.5 * (1 + np.tanh((L - t) / 0.15))
-    rec = foldmap._empty_record(dict(point), foldmap._key(point))
+    rec = foldmap._empty_record(dict(point), foldmap.map_key(point))
     rec.update(curvature_dominated=_curve(L, d), gravity_dominated=_curve(L[::-1], d[::-1]),
                converged=True, newton_iterations=10, wall_time_s=1.0,
                curvature_dominated_snapped=False, gravity_dominated_snapped=False)

@@ -47,13 +47,13 @@ def _map_row(point):
     L = np.round(np.arange(point["length_min"], point["length_max"] + 1e-9, 0.1), 6)
     t = 1.0 + 0.1 * c
     d = np.where((L < t) & (c > 0), -0.01 * c * L, 0.15 * L**2 * (1 + b))
-    rec = foldmap._empty_record(dict(point), foldmap._key(point))
+    rec = foldmap._empty_record(dict(point), foldmap.map_key(point))
     rec.update(curvature_dominated=_curve_json(L, d), gravity_dominated=_curve_json(L[::-1],
                                                                                   d[::-1]),
                transition_length=math.nan if c == 0 else t, converged=True,
                newton_iterations=COST["map"], wall_time_s=1.0 + c,
                curvature_dominated_snapped=False, gravity_dominated_snapped=False)
-    return foldmap.computed_record(point, foldmap._key, foldmap._empty_record,
+    return foldmap.computed_record(point, foldmap.map_key, foldmap._empty_record,
                                    lambda p, r: r.update(rec))
 
 

@@ -33,10 +33,10 @@ def test_map_points_grid_order_and_keys():
     assert all(p["length_min"] == 0.6 and p["length_max"] == 2.4 for p in pts)
     # the key is that of the rounded parameters: arange noise does not make a new point
     noisy = fm.map_points([0.1 + 0.2], [2.5])[0]
-    assert fm._key(noisy) == fm._key(fm.map_points([0.3], [2.5])[0])
-    assert fm._key(pts[0]) != fm._key(pts[1])
+    assert fm.map_key(noisy) == fm.map_key(fm.map_points([0.3], [2.5])[0])
+    assert fm.map_key(pts[0]) != fm.map_key(pts[1])
     # and it is not a sweep point's key
-    assert len({fm._key(p) for p in pts}) == 4
+    assert len({fm.map_key(p) for p in pts}) == 4
 
 
 @pytest.mark.parametrize("bad, match", [

@@ -182,7 +182,7 @@ def test_the_shared_chunk_task_and_failed_record_keep_order_and_reason(fake):
     assert not died["converged"] and math.isnan(died["deflection"]) and died["finished_at"]
     mp = foldmap.map_points([0.5], [1.0])[0]
     lost = foldmap._MAP_JOB.failed(mp, "the Dask task failed: KilledWorker", "KilledWorker")
-    assert lost["key"] == foldmap._key(mp) and lost["error"] == "KilledWorker"
+    assert lost["key"] == foldmap.map_key(mp) and lost["error"] == "KilledWorker"
     assert not lost["converged"] and math.isnan(lost["popup_length"])
     cp = foldmap.curve_points([2.5])[0]
     assert foldmap._CURVE_JOB.failed(cp, "gone", "WorkerDied")["key"] == foldmap._curve_key(cp)

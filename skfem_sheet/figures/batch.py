@@ -92,8 +92,9 @@ def _shared_rows(names, quality, data_dir, progress, workers):
     points, seen = [], set()
     for name in SHARED_ROWS:
         for p in _POINTS[name](quality):
-            if foldmap.map_key(p) not in seen:
-                seen.add(foldmap.map_key(p))
+            key = foldmap.map_key(p)
+            if key not in seen:
+                seen.add(key)
                 points.append(p)
     log = []
     t0 = time.perf_counter()

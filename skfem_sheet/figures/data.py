@@ -138,7 +138,7 @@ def _inside_window(row, point) -> bool:
     L, d, _ = foldmap.branch_curve(row)
     if len(L) < 3:
         return False
-    i = int(np.argmax(np.diff(d) / np.diff(L)))
+    i = foldmap.steepest_interval(L, d)
     return ((i > 0 or L[0] <= float(point["length_min"]) + 1e-9)
             and (i < len(L) - 2 or L[-1] >= float(point["length_max"]) - 1e-9))
 
@@ -170,14 +170,16 @@ def transition_rows(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, p
         as ``length_min``, ``length_max``).
     """
     points = list(points)
+    if not points:
+        return pd.DataFrame(columns=list(foldmap.MAP_COLUMNS))
     keep = {foldmap.map_key(p) for p in full}
-    whole = [foldmap.row_coarse_hmax(p["hmax"]) is None or foldmap.map_key(p) in keep
-             for p in points]
+    coarse_hmax = [foldmap.row_coarse_hmax(p["hmax"]) for p in points]
+    whole = [h is None or foldmap.map_key(p) in keep for p, h in zip(points, coarse_hmax)]
     coarse_at = [k for k, w in enumerate(whole) if not w]
     chosen = [None] * len(points)
     if coarse_at:
-        coarse = fold_map_table([{**points[k], "hmax": foldmap.row_coarse_hmax(points[k]["hmax"])}
-                                 for k in coarse_at], quality, data_dir, progress, workers, log)
+        coarse = fold_map_table([{**points[k], "hmax": coarse_hmax[k]} for k in coarse_at],
+                                quality, data_dir, progress, workers, log)
         windowed = []
         for k, (_, row) in zip(coarse_at, coarse.iterrows()):
             t = foldmap.transition_length(row) if usable(row) else None
@@ -199,8 +201,6 @@ def transition_rows(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, p
         df = fold_map_table([points[k] for k in rest], quality, data_dir, progress, workers, log)
         for k, (_, row) in zip(rest, df.iterrows()):
             chosen[k] = row
-    if not points:
-        return pd.DataFrame(columns=list(foldmap.MAP_COLUMNS))
     return pd.DataFrame([r.to_dict() for r in chosen]).reset_index(drop=True)
 
 

@@ -9,8 +9,8 @@ a/R (L1*, the cusp, L0*) and the markers above the cusp come from it; only
 the shape factors below the cusp, where the transition is continuous, take a
 fold-map point each -- traced on the fine mesh only around its transition
 where fig2 and fig4 do not draw that row whole
-(:func:`~skfem_sheet.figures.data.transition_rows`).  ``method="grid"``: everything from the fold map (the
-reference).
+(:func:`~skfem_sheet.figures.data.transition_rows`).  ``method="grid"``:
+everything from the fold map (the reference).
 
 Examples
 --------

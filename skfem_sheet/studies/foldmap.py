@@ -64,7 +64,7 @@ from .runner import (
 )
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "fold_map", "row_coarse_hmax",
-           "branch_curve", "transition_length", "modes", "critical_tip_width",
+           "branch_curve", "transition_length", "steepest_interval", "modes", "critical_tip_width",
            "CURVE_PARAMETERS", "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves",
            "critical_curve"]
 
@@ -118,8 +118,6 @@ def map_key(point) -> str:
     p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
     return hash_key(["fold-map", *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
 
-
-_key = map_key
 
 
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
@@ -176,7 +174,7 @@ def _nan(x):
 
 def _run_map_point(point) -> dict:
     """Fold lengths of one normalised map point; every exception becomes a failed record."""
-    return computed_record(point, _key, _empty_record, _fill_map_record)
+    return computed_record(point, map_key, _empty_record, _fill_map_record)
 
 
 def row_coarse_hmax(hmax: float):
@@ -244,8 +242,8 @@ def _frame(records):
 
 
 _MAP_JOB = Job(task=EachPoint(__name__, "_run_map_point"),
-               failed=functools.partial(failed_record, _empty_record, _key), frame=_frame,
-               key_of=_key, required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
+               failed=functools.partial(failed_record, _empty_record, map_key), frame=_frame,
+               key_of=map_key, required=("tip_width", "curvature", "converged", "popup_length"), desc="fold map")
 
 
 def _chunks(points, n_workers):
@@ -289,7 +287,7 @@ def fold_map(points, table=None, workers=None, scheduler=None, progress=True, *,
     """
     points = study_points(points, _normalize, "map_points")
     path = check_run(table, workers, scheduler)
-    keys = [_key(p) for p in points]
+    keys = [map_key(p) for p in points]
     done, stats = execute(points, keys, _MAP_JOB, table=path, workers=workers,
                           scheduler=scheduler, progress=progress, retry_failed=retry_failed,
                           chunker=_chunks)
@@ -352,9 +350,20 @@ def transition_length(row) -> float | None:
     L, d, _ = branch_curve(row)
     if len(L) < 3:
         return None
-    slope = np.diff(d) / np.diff(L)
-    i = int(np.argmax(slope))
+    i = steepest_interval(L, d)
     return float(0.5 * (L[i] + L[i + 1]))
+
+
+def steepest_interval(L, d) -> int:
+    """Index ``i`` of the interval ``[L[i], L[i + 1]]`` where ``d`` rises
+    fastest (the one :func:`transition_length` takes the middle of).
+
+    Examples
+    --------
+    >>> steepest_interval([1.0, 1.1, 1.15, 1.3], [0.0, 0.1, 0.2, 0.3])
+    1
+    """
+    return int(np.argmax(np.diff(d) / np.diff(L)))
 
 
 def modes(row, lengths):
