@@ -592,11 +592,15 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     are traced on that mesh first; the fine ones start from the sheet solved
     by :class:`~skfem_sheet.starts.CoarseStart` (the load path on the coarse
     mesh, carried), and each fine step's prediction is corrected by the
-    coarse branch's second-order part (:class:`_Guide`).  Where neither
-    coarse branch has a fold and the fine curvature-dominated branch reaches
-    ``lengths[1]`` without one, the gravity-first start there is checked to
-    be that branch's end (:func:`_same_state`) and the branch is traced once
-    (``decreasing is increasing``).  The equilibria are the fine mesh's (to
+    coarse branch's second-order part (:class:`_Guide`).
+
+    Where the curvature-dominated branch reaches ``lengths[1]`` without a
+    fold (and, coarse to fine, neither coarse branch has one), the
+    gravity-first start there is checked to be that branch's end
+    (:func:`_same_state`) and the branch is traced once (``decreasing is
+    increasing``; unless ``on_point[1]`` asks for its states): the continuation in L from one equilibrium is unique as
+    long as no fold is passed, so the gravity-dominated branch is the same
+    curve traced back.  The equilibria are the fine mesh's (to
     Newton's tolerance), the folds bracketed on it; measured at hmax 0.03
     from 0.1 (rows L/a 0.5-3, steps 0.05): 0.71 of the wall time of the fine
     mesh alone on the bistable rectangle at a/R 2.5, 0.42 on the monotone
@@ -646,14 +650,15 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     bars = _bars(progress, lo, hi)
     try:
         up = _follow("L", base, hi, path="curvature-first", hmax=hmax, **common,
-                     progress=bars[0], on_point=keep_last if coarse_hmax else on_point[0],
-                     start=start, guide=guides[0])
+                     progress=bars[0], on_point=keep_last, start=start, guide=guides[0])
         down = up if flat else None
         if not flat:
             twin = None
-            if (coarse[0] is not None and coarse[1] is not None and coarse[0].fold is None
-                    and coarse[1].fold is None and not coarse[1].start_snapped
-                    and up.fold is None and not up.reason and last):
+            no_coarse_fold = coarse_hmax is None or (
+                coarse[0].fold is None and coarse[1].fold is None
+                and not coarse[1].start_snapped)
+            if (no_coarse_fold and up.fold is None and not up.reason and last
+                    and on_point[1] is None):  # whose states were asked for is traced
                 twin = tuple(last)
             down = _follow("L", base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
                            **common, progress=bars[1], on_point=on_point[1], start=start,

@@ -7,6 +7,8 @@ while the real data functions, caches, journals and drawings run: the
 summary's counts must be the stand-ins' sums, the figures share the fold map
 and the fold curves, and a second run computes nothing.
 """
+import concurrent.futures
+import contextlib
 import json
 import math
 from types import SimpleNamespace
@@ -295,3 +297,40 @@ def test_summary_table_and_dominant_step():
     assert len({len(line.split("  dominated")[0]) for line in lines[1:2]}) == 1
     assert batch.run_order(["fig7", "fig6"]) == ["fig7", "fig6"]
     assert batch.run_order(["fig6", "fig2", "fig7"]) == ["fig7", "fig6", "fig2"]
+
+
+def test_the_figures_with_their_own_solves_are_drawn_beside_the_others(stand_ins, tmp_path,
+                                                                       monkeypatch):
+    # where the others run on two workers, fig3, figS1, figS3 and figS4 go to one
+    # side process; the summary keeps the order of the figures drawn in turn
+    assert batch.plan(list(figures.FIGURES), workers=2) == (
+        ["fig2", "fig4", "fig5", "fig7", "fig6"], ["fig3", "figS1", "figS3", "figS4"])
+    assert batch.plan(list(figures.FIGURES), workers=1)[1] == []
+    assert batch.plan(["fig3", "figS1"], workers=2) == (["fig3", "figS1"], [])
+    # the orchestration, with the side process run in this one (the stand-ins are
+    # patched here only) and the fold map on one worker
+    side = []
+
+    @contextlib.contextmanager
+    def here(task, names, *args):
+        side.append(list(names))
+        fut = concurrent.futures.Future()
+        fut.set_result(task(names, *args))
+        yield fut
+
+    monkeypatch.setattr(batch, "beside_this", here)
+    monkeypatch.setattr(batch, "plan", lambda names, workers=None: (
+        [n for n in batch.run_order(names) if n not in batch.ALONGSIDE],
+        [n for n in batch.run_order(names) if n in batch.ALONGSIDE]))
+    out = tmp_path / "out"
+    runs = figures.make_all("quick", out, tmp_path / "data", progress=False, workers=1)
+    assert side == [["fig3", "figS1", "figS3", "figS4"]]
+    assert [r.name for r in runs] == ["fig2+fig4-rows"] + batch.run_order(figures.FIGURES)
+    assert not [r.error for r in runs if r.error]
+    assert all((out / f"{n}.png").exists() for n in figures.FIGURES)
+    assert _by_name(runs)["fig3"].solves == 6
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["beside"] == ["fig3", "figS1", "figS3", "figS4"]
+    text = (out / "summary.txt").read_text().splitlines()
+    assert "fig3, figS1, figS3, figS4 in a process beside them" in text[0]
+    assert text[-1].startswith("elapsed ") and "the walls overlap" in text[-1]

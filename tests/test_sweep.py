@@ -671,3 +671,18 @@ def test_the_points_of_a_chunk_share_one_build_chain(fake, monkeypatch):
     sw._JOB.task(pts[:1])
     assert all(isinstance(c, BuildChain) for c in chains) and len(chains) == 4
     assert chains[0] is chains[1] is chains[2] and chains[3] is not chains[0]
+
+
+def test_beside_runs_its_task_in_another_process_and_is_killed_by_an_exception():
+    from skfem_sheet.studies.runner import beside
+
+    with beside(os.getpid) as fut:
+        other = fut.result(timeout=120)
+    assert other != os.getpid()
+    # leaving the block by an exception does not wait for the task: its process is killed
+    t0 = time.perf_counter()
+    with pytest.raises(RuntimeError, match="stop"):
+        with beside(time.sleep, 120) as fut:
+            fut.running() or time.sleep(0.5)
+            raise RuntimeError("stop")
+    assert time.perf_counter() - t0 < 60  # not the task's 120 s

@@ -11,7 +11,9 @@ instead of fig6's two first and the other 16 after them; likewise fig2's and
 fig4's rows are computed in one batch before fig2 is drawn
 (:data:`SHARED_ROWS`).  fig3, figS1, figS3
 and figS4 keep their own solves; the ribbon curves of fig5 and the ribbon map
-of fig6 are on different length grids and are not shared.
+of fig6 are on different length grids and are not shared.  Those four are
+drawn in one process of their own beside the others where the others
+compute on two workers or more (:data:`ALONGSIDE`, :func:`plan`).
 
 One progress bar (stderr) counts the figures; the bar of the step under way
 (the fold map, the fold curves, a figure's solves) shows below it while it
@@ -20,15 +22,21 @@ runs.  At the end, :func:`make_all` writes the summary
 ``out_dir/summary.txt`` and ``out_dir/summary.json``: per figure its wall
 time, solves, factorisations, units computed and cached, and what dominated.
 A figure that fails is recorded there (its error) and the others are drawn;
-Ctrl-C writes the summary of the figures finished and stops.
+Ctrl-C writes the summary of the figures finished in this process and
+stops (the side process is killed; what its figures cached stays).
 
 Examples
 --------
 >>> run_order(["fig2", "fig6", "fig7", "figS1"])
 ['fig2', 'fig7', 'fig6', 'figS1']
+>>> plan(["fig2", "fig3", "fig7", "figS1"], workers=2)
+(['fig2', 'fig7'], ['fig3', 'figS1'])
+>>> plan(["fig2", "fig3", "fig7", "figS1"], workers=1)
+(['fig2', 'fig3', 'fig7', 'figS1'], [])
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -40,13 +48,13 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import fold_map_table, foldmap
+from .data import beside_this, fold_map_table, foldmap
 from .figure2 import fig2_points
 from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
 from .work import FigureRun, summary_json, summary_text
 
-__all__ = ["make_all", "run_order", "SHARED_ROWS", "SUMMARY_FILES"]
+__all__ = ["make_all", "run_order", "plan", "ALONGSIDE", "SHARED_ROWS", "SUMMARY_FILES"]
 
 #: The summary's files in the output folder: the text table and the JSON.
 SUMMARY_FILES = ("summary.txt", "summary.json")
@@ -60,6 +68,17 @@ SUMMARY_FILES = ("summary.txt", "summary.json")
 SHARED_ROWS = ("fig2", "fig4")
 _POINTS = {"fig2": fig2_points, "fig4": fig4_points}
 
+#: Figures with their own finite-element solves and no table shared with
+#: another figure (fig3's surfaces, figS1's convergence solves, figS3's and
+#: figS4's sheet).  Where the other figures compute on two workers or more,
+#: these are drawn one after the other in one process of their own, beside
+#: them (:func:`plan`): drawn in turn, their solves ran on one core while the
+#: other waited (figS1's finest mesh alone 157 s of the 240 s the four took
+#: at paper quality on main 3a969d2); beside the workers they fill the cores.
+ALONGSIDE = ("fig3", "figS1", "figS3", "figS4")
+#: Figures whose data is computed on the workers (the fold map, the fold curves).
+_ON_WORKERS = ("fig2", "fig4", "fig6", "fig7")
+
 
 def run_order(names) -> list:
     """The order in which :func:`make_all` draws ``names``: as given, with fig7
@@ -69,6 +88,30 @@ def run_order(names) -> list:
         names.remove("fig7")
         names.insert(names.index("fig6"), "fig7")
     return names
+
+
+def plan(names, workers=None) -> tuple:
+    """``(here, beside)``: the figures of ``names`` drawn one after the other
+    in this process (in :func:`run_order`) and those of :data:`ALONGSIDE`
+    drawn in a process beside it -- none unless ``workers`` (default: one per
+    CPU) is at least 2 and a figure computed on the workers is drawn here.
+    See the module's examples."""
+    order = run_order(names)
+    n = (os.cpu_count() or 1) if workers is None else int(workers)
+    side = [x for x in order if x in ALONGSIDE]
+    if n < 2 or not any(x in _ON_WORKERS for x in order):
+        return order, []
+    return [x for x in order if x not in side], side
+
+
+def _draw_beside(names, quality, out_dir, data_dir) -> tuple:
+    """The side process's task: ``names`` drawn one after the other into
+    ``out_dir`` (their solves on this one core, no progress bars)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    return tuple(_draw(n, quality, os.path.join(out_dir, f"{n}.png"), data_dir, False, 1)
+                 for n in names)
 
 
 def _out_folder(out_dir) -> str:
@@ -172,27 +215,45 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     about = {"quality": quality, "data_dir": os.fspath(data_dir), "out_dir": out_dir,
              "workers": workers, "version": version.__version__,
              "started_at": time.strftime("%Y-%m-%d %H:%M:%S %z")}
+    here, side = plan(names, workers)
+    about["beside"] = side
     title = (f"figure all, {quality} quality: data in {os.fspath(data_dir)}, figures in "
-             f"{out_dir} (workers: {workers or 'one per CPU'})")
-    runs = []
+             f"{out_dir} (workers: {workers or 'one per CPU'}"
+             + (f"; {', '.join(side)} in a process beside them" if side else "") + ")")
+    shared, done, t0 = None, {}, time.perf_counter()
     bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
-        shared = _shared_rows(names, quality, data_dir, progress, workers)
-        if shared is not None:
-            runs.append(shared)
-        for name in run_order(names):
-            bar.set_postfix_str(name)
-            runs.append(_draw(name, quality, os.path.join(out_dir, f"{name}.png"), data_dir,
-                              progress, workers))
-            bar.update(1)
+        with (beside_this(_draw_beside, side, quality, out_dir, os.fspath(data_dir)) if side
+              else contextlib.nullcontext()) as fut:
+            shared = _shared_rows(names, quality, data_dir, progress, workers)
+            for name in here:
+                bar.set_postfix_str(name)
+                done[name] = _draw(name, quality, os.path.join(out_dir, f"{name}.png"),
+                                   data_dir, progress, workers)
+                bar.update(1)
+            if fut is not None:
+                bar.set_postfix_str(", ".join(side))
+                try:
+                    side_runs = fut.result()
+                except Exception:  # the process died (killed, out of memory): drawn here
+                    side_runs = tuple(_draw(n, quality, os.path.join(out_dir, f"{n}.png"),
+                                            data_dir, progress, workers) for n in side)
+                done.update((r.name, r) for r in side_runs)
+                bar.update(len(side))
     finally:
         bar.close()
-        _write_summary(runs, out_dir, title, about)
+        runs = ([shared] if shared is not None else []) + [done[n] for n in run_order(names)
+                                                           if n in done]
+        _write_summary(runs, out_dir, title, {**about, "elapsed_s": time.perf_counter() - t0})
     return tuple(runs)
 
 
 def _write_summary(runs, out_dir, title, about) -> None:
     text, data = SUMMARY_FILES
-    atomic_write(os.path.join(out_dir, text), summary_text(runs, title) + "\n")
+    table = summary_text(runs, title)
+    if about["beside"]:  # the walls overlap: their sum is not the run's
+        table += (f"\nelapsed {about['elapsed_s']:.1f} s ({', '.join(about['beside'])} drawn "
+                  f"beside the others: the walls overlap)")
+    atomic_write(os.path.join(out_dir, text), table + "\n")
     atomic_write(os.path.join(out_dir, data), dumps_json(summary_json(runs, **about)) + "\n")

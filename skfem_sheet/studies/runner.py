@@ -67,7 +67,7 @@ __all__ = ["Job", "EachPoint", "StudyInterrupted", "computed_record", "failed_re
            "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
-           "hash_key", "as_values", "pool", "dask", "dask_client", "MAX_POINTS"]
+           "hash_key", "as_values", "pool", "beside", "dask", "dask_client", "MAX_POINTS"]
 
 SIGNIFICANT = 10          # digits kept when normalising numbers (the key and the computation)
 MAX_POINTS = 100_000      # largest study accepted
@@ -714,6 +714,37 @@ def pool(chunks, n_workers, task, failed):
         finally:
             if ex is not None:
                 _stop_pool(ex, kill=False)
+
+
+@contextlib.contextmanager
+def beside(task, *args):
+    """Run ``task(*args)`` on one spawned process while the caller goes on.
+
+    Yields the task's :class:`concurrent.futures.Future`.  The process is a
+    worker of :func:`pool`'s kind (it ignores Ctrl-C, which is the caller's
+    business, exits if the caller dies, one BLAS/MKL thread unless
+    ``OMP_NUM_THREADS``/... are set).  Leaving the block normally waits for
+    the task; leaving it by an exception (Ctrl-C included) kills the process
+    and its task's work is lost.  ``task`` must be importable (a module-level
+    function), as for :func:`pool`.
+
+    Examples
+    --------
+    >>> with beside(os.getpid) as fut:  # doctest: +SKIP
+    ...     fut.result() != os.getpid()
+    True
+    """
+    ctx = multiprocessing.get_context("spawn")
+    ex = ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_pool_worker,
+                             initargs=(os.getpid(),))
+    finished = False
+    try:
+        with _thread_env(1):  # the process starts on the first submit
+            fut = ex.submit(task, *args)
+        yield fut
+        finished = True
+    finally:
+        _stop_pool(ex, kill=not finished)
 
 
 def _ping():
