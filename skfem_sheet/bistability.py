@@ -154,13 +154,21 @@ def _branch_problem(sheet, name, hmax, layers, solver, symmetric):
 _OPTIONS = NewtonOptions()
 
 
-def _tolerances(max_correction=np.inf):
+def _tolerances(max_correction=np.inf, pair_contraction=False):
     # linearisations: the factorisations, the chord steps after them (see
     # _chord_linearization: each at least halves a correction already below
-    # utol), and the last one, which only confirms
+    # utol), and the last one, which only confirms.  pair_contraction (for the
+    # continuation's steps, not for a state carried to a new mesh, which is
+    # near its equilibrium however slowly Newton gets there): a step
+    # past a fold, where no equilibrium is near, is given up once a
+    # correction outgrows the one two linearisations before (at the 3rd or
+    # 4th instead of the 9th on the rectangle at a/R 2.5, where the rows'
+    # failed steps were a third of the fine work; converging steps shrink
+    # pairwise, a third correction at most 0.23 times the first)
     return Tolerances(rtol=_OPTIONS.rtol, utol=_OPTIONS.utol,
                       max_iterations=2 * _OPTIONS.max_iterations + 1,
-                      max_halvings=_OPTIONS.max_halvings, max_correction=max_correction)
+                      max_halvings=_OPTIONS.max_halvings, max_correction=max_correction,
+                      pair_contraction=pair_contraction)
 
 
 def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
@@ -379,10 +387,10 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
         return moved
 
     b = natural(counter, out.w[P.free], p0, 0, stop, step=step, min_step=tol, bracket=2 * tol,
-                tol=_tolerances(guard), locate=False, inertia_change=False, grow_after=None,
-                check=check, before_step=before_step, on_step=on_step, keep_states=False,
-                linearization=_chord_linearization, progress=progress,
-                start=(out.w[P.free], P.held(out.w[P.free], p0)),
+                tol=_tolerances(guard, pair_contraction=True), locate=False,
+                inertia_change=False, grow_after=None, check=check, before_step=before_step,
+                on_step=on_step, keep_states=False, linearization=_chord_linearization,
+                progress=progress, start=(out.w[P.free], P.held(out.w[P.free], p0)),
                 guide=_Guide(guide, P) if guide and name == "L" else None)
     fold = None
     if b.bracket and not b.reason.startswith("remeshing") and not b.completed:

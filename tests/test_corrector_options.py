@@ -92,6 +92,41 @@ def test_divergence_floor_tolerates_small_oscillating_corrections():
         Tolerances(divergence_floor=-1.0)
 
 
+def test_pair_contraction_stops_where_a_correction_outgrows_the_one_two_before():
+    """With ``pair_contraction``, a correction larger than the one two
+    linearisations before ends the iteration as "not contracting"; corrections
+    that alternate in size while they shrink pairwise (as a thin sheet's,
+    measured on the rectangle at a/R 2.5: a second correction up to 6.3 times
+    the first, the third at most 0.23 times the first) still converge, in the
+    same linearisations.  Sequences of corrections of the sheet's rows past a
+    fold (hmax 0.05): this one is stopped at the third linearisation instead
+    of at the limit (the ninth)."""
+
+    class Identity:
+        def solve(self, b):
+            return b
+
+    def run(corrections, pair):
+        seq = iter(corrections)
+
+        def linearize(u, p):
+            d = next(seq)
+            return (0.0 if d < 1e-12 else 1.0), np.array([d]), np.zeros(1), Identity(), None
+        return correct(Counting(_sqrt2()), np.array([0.0]), np.array([0.0]), linearize,
+                       Tolerances(utol=1e-10, max_iterations=9, pair_contraction=pair),
+                       admissible=lambda u, p: True)
+
+    converging = [0.001546, 0.009768, 0.000359, 0.000991, 1.5e-05, 1e-13]
+    assert run(converging, False).converged and run(converging, True).converged
+    assert run(converging, True).iterations == run(converging, False).iterations == 6
+    past_fold = [0.029112, 0.030536, 0.030004, 0.013357, 0.19517, 0.037419, 0.129334,
+                 0.017668, 0.02]
+    assert run(past_fold, False).reason == "max iterations"
+    stopped = run(past_fold, True)
+    assert not stopped.converged and stopped.iterations == 3
+    assert stopped.reason.startswith("not contracting")
+
+
 class _Well(TransientSystem):
     """E = u^4/4 - u^2/2 (minima at +-1, saddle at 0), M = 1."""
 

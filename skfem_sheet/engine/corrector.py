@@ -55,6 +55,15 @@ class Tolerances:
         "diverging".  A floor suits problems whose corrections are
         non-monotone for a few iterations (a bending step of a thin sheet
         leaves a membrane residual for the next one).
+    pair_contraction : bool
+        From the third linearisation on, a correction larger than the one two
+        linearisations before (and than ``utol``) stops the iteration as "not
+        contracting": Deuflhard's monotonicity test (*Newton Methods for
+        Nonlinear Problems*, Springer 2004, sec. 5.1: a contraction of one or
+        more says the iterate left Newton's basin) on pairs of corrections,
+        for systems whose consecutive corrections alternate in size while
+        they converge (a thin sheet's bending correction leaves a membrane
+        residual for the next one).  Off by default.
     error_estimate : bool
         Also stop on Newton's own error estimate (Deuflhard, *Newton Methods
         for Nonlinear Problems*, Springer 2004, ch. 2): from the second
@@ -77,6 +86,7 @@ class Tolerances:
     max_halvings: int = 6
     max_correction: float = np.inf
     divergence_floor: float | None = None
+    pair_contraction: bool = False
     error_estimate: bool = False
 
     def __post_init__(self):
@@ -253,6 +263,10 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
         elif it >= 3 and dn > (10.0 * max(first, tol.utol) if tol.divergence_floor is None
                                else max(10.0 * first, tol.divergence_floor)):
             return result(False, "diverging", it)
+        if (tol.pair_contraction and it >= 3
+                and dn > max(history[-3][1], tol.utol)):
+            return result(False, "not contracting (a correction larger than the one two "
+                          "linearisations before)", it)
         alpha = 1.0
         for _ in range(tol.max_halvings + 1):
             ut, pt = u + alpha * du, p + alpha * dp
