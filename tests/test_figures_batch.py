@@ -318,7 +318,7 @@ def test_the_figures_with_their_own_solves_are_drawn_beside_the_others(stand_ins
         fut.set_result(task(names, *args))
         yield fut
 
-    monkeypatch.setattr(batch, "beside_this", here)
+    monkeypatch.setattr(batch, "beside", here)
     monkeypatch.setattr(batch, "plan", lambda names, workers=None: (
         [n for n in batch.run_order(names) if n not in batch.ALONGSIDE],
         [n for n in batch.run_order(names) if n in batch.ALONGSIDE]))

@@ -48,7 +48,7 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import beside_this, fold_map_table, foldmap
+from .data import beside, fold_map_table, foldmap
 from .figure2 import fig2_points
 from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
@@ -110,8 +110,7 @@ def _draw_beside(names, quality, out_dir, data_dir) -> tuple:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    return tuple(_draw(n, quality, os.path.join(out_dir, f"{n}.png"), data_dir, False, 1)
-                 for n in names)
+    return tuple(_draw(n, quality, out_dir, data_dir, False, 1) for n in names)
 
 
 def _out_folder(out_dir) -> str:
@@ -150,10 +149,12 @@ def _shared_rows(names, quality, data_dir, progress, workers):
     return FigureRun(entry, "", time.perf_counter() - t0, tuple(log))
 
 
-def _draw(name, quality, out, data_dir, progress, workers) -> FigureRun:
-    """One figure into ``out``; an exception (not Ctrl-C) becomes the run's error."""
+def _draw(name, quality, out_dir, data_dir, progress, workers) -> FigureRun:
+    """One figure into ``out_dir/<name>.png``; an exception (not Ctrl-C) becomes
+    the run's error."""
     import matplotlib.pyplot as plt  # deferred: make_figure chose the file backend
 
+    out = os.path.join(out_dir, f"{name}.png")
     log = []
     t0 = time.perf_counter()
     try:
@@ -224,21 +225,20 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
-        with (beside_this(_draw_beside, side, quality, out_dir, os.fspath(data_dir)) if side
+        with (beside(_draw_beside, side, quality, out_dir, os.fspath(data_dir)) if side
               else contextlib.nullcontext()) as fut:
             shared = _shared_rows(names, quality, data_dir, progress, workers)
             for name in here:
                 bar.set_postfix_str(name)
-                done[name] = _draw(name, quality, os.path.join(out_dir, f"{name}.png"),
-                                   data_dir, progress, workers)
+                done[name] = _draw(name, quality, out_dir, data_dir, progress, workers)
                 bar.update(1)
             if fut is not None:
                 bar.set_postfix_str(", ".join(side))
                 try:
                     side_runs = fut.result()
                 except Exception:  # the process died (killed, out of memory): drawn here
-                    side_runs = tuple(_draw(n, quality, os.path.join(out_dir, f"{n}.png"),
-                                            data_dir, progress, workers) for n in side)
+                    side_runs = tuple(_draw(n, quality, out_dir, data_dir, progress, workers)
+                                      for n in side)
                 done.update((r.name, r) for r in side_runs)
                 bar.update(len(side))
     finally:

@@ -31,7 +31,7 @@ __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "bran
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
            "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step",
-           "on_workers", "beside_this", "TRANSITION_WINDOW", "transition_window", "transition_rows"]
+           "on_workers", "beside", "TRANSITION_WINDOW", "transition_window", "transition_rows"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
@@ -263,16 +263,9 @@ def on_workers(chunks, workers, task):
     each chunk's list of results as it finishes; a point whose worker failed
     is None in it (the caller computes it again in its own process, where
     the error is raised).  The figures' one door to the worker pool, as this module
-    is to the studies."""
+    is to the studies (with :func:`~skfem_sheet.studies.runner.beside`, one
+    task on a process of its own, re-exported here)."""
     yield from pool(chunks, int(workers), task, lambda point, message, error: None)
-
-
-def beside_this(task, *args):
-    """``task(*args)`` on one spawned process while this one goes on: a
-    context manager yielding its future (the studies'
-    :func:`~skfem_sheet.studies.runner.beside`; leaving the block by an
-    exception kills the process)."""
-    return beside(task, *args)
 
 
 def study_step(what, df, stats, counter, wall_time_s) -> DataStep:

@@ -119,7 +119,6 @@ def map_key(point) -> str:
     return hash_key(["fold-map", *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
 
 
-
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
                step: float = 0.1, tol: float = 0.005, thickness: float = 0.03,
                modulus: float = 735.0, solver: str = "auto") -> list:

@@ -648,6 +648,12 @@ def _stop_pool(ex, kill):
             proc.join(1)
 
 
+def _new_pool(n):
+    """A pool of ``n`` spawned workers that ignore Ctrl-C and exit with their parent."""
+    return ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_init_pool_worker, initargs=(os.getpid(),))
+
+
 def pool(chunks, n_workers, task, failed):
     """Chunks on ``n_workers`` spawned processes; yields lists of records.
 
@@ -659,12 +665,7 @@ def pool(chunks, n_workers, task, failed):
     threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
     are set.
     """
-    ctx = multiprocessing.get_context("spawn")
-
-    def new_pool(n):
-        return ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_pool_worker,
-                                   initargs=(os.getpid(),))
-
+    new_pool = _new_pool
     threads = max(1, (os.cpu_count() or 1) // n_workers)
     queue = list(reversed(chunks))
     ex = None
@@ -734,9 +735,7 @@ def beside(task, *args):
     ...     fut.result() != os.getpid()
     True
     """
-    ctx = multiprocessing.get_context("spawn")
-    ex = ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_pool_worker,
-                             initargs=(os.getpid(),))
+    ex = _new_pool(1)
     finished = False
     try:
         with _thread_env(1):  # the process starts on the first submit
