@@ -6,7 +6,9 @@ points spaced evenly in the parameter plane, the neighbours of the cusp:
 :func:`select`) are carried onto the finer mesh (state and null vector) and
 corrected there with the minimally augmented system (:func:`refine`) -- the
 ends as folds in L at the start value, the others on the hyperplane through
-the coarse point normal to the coarse curve -- level by level.  An end that
+the coarse point normal to the coarse curve -- level by level.  A carried
+state outside Newton's basin of the fold system is settled first as an
+equilibrium, and on the next level too (:func:`settled_fold`).  An end that
 does not converge on the finer mesh is traced there instead
 (:func:`continue_to_end`).  :func:`run` is the whole of it, and the cusp on
 the fine mesh (:mod:`~skfem_sheet.foldcurve.cusp`).
@@ -39,20 +41,23 @@ from .series import SeriesCollector, add_frame
 from .trace import trace
 
 __all__ = ["Collector", "FineMeshes", "KeptPoint", "RefinedPoint", "continue_to_end",
-           "fold_from", "neighbours", "refine", "run", "select"]
+           "fold_from", "neighbours", "refine", "run", "select", "settled_fold"]
 
 
 @dataclass(frozen=True)
 class KeptPoint:
     """A fold-curve point on one mesh with what refining it needs: its
     problem, parameters, state and null vector, fold coefficient, side and
-    tip deflection.
+    tip deflection; ``settle``: its state, carried from the coarser mesh it
+    was refined from, lay outside Newton's basin of the fold system there
+    and was settled first (:func:`refine` then settles it first on the next
+    mesh too).
 
     Examples
     --------
     >>> q = KeptPoint(None, np.array([1.3, 0.8]), np.zeros(3), np.ones(3), 0.1, -1, 0.05)
-    >>> q.side, q.tip
-    (-1, 0.05)
+    >>> q.side, q.tip, q.settle
+    (-1, 0.05, False)
     """
 
     problem: object = field(repr=False)
@@ -62,6 +67,7 @@ class KeptPoint:
     a: float
     side: int
     tip: float
+    settle: bool = False
 
 
 @dataclass(frozen=True)
@@ -208,17 +214,7 @@ def refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, end
             t_u = c.problem.transferred(Pf, kept[hi].u - kept[lo].u, c.p, state=False)
             t_p = kept[hi].p - kept[lo].p
             section = (t_u, t_p, Pf.inner(t_u, u) + float(t_p @ c.p))
-        fold, res = fold_from(Pf, section, name, u, c.p, v, tol)
-        lost = res.stats.factorizations if fold is None else 0
-        if fold is None:
-            # outside Newton's basin of the fold system: settle the carried
-            # state first as an equilibrium on the section of its null
-            # vector (L free), then locate the fold from there
-            settled = equilibrium_on_section(Pf, u, c.p, "L",
-                                             (v, np.zeros_like(c.p), Pf.inner(v, u)), tol=tol)
-            lost += settled.stats.factorizations
-            if settled.converged:
-                fold, res = fold_from(Pf, section, name, settled.u, settled.p, v, tol)
+        fold, res, lost, settled = settled_fold(Pf, section, name, u, c.p, v, tol, c.settle)
         if fold is not None and end and int(fold.side) != c.side:
             lost += fold.stats.factorizations
             fold, res = None, dataclasses.replace(res, reason="the other kind of fold")
@@ -235,8 +231,59 @@ def refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, end
             crossing, int(res.iterations),
             int(fold.stats.factorizations + extra + lost + Pf.refactorizations - f0), end,
             refill=False, kept=KeptPoint(Pf, np.array(fold.p), fold.u, fold.v, float(fold.a),
-                                         int(fold.side), tip)))
+                                         int(fold.side), tip, settle=settled)))
     return out, failures, spent
+
+
+def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
+    """The fold from a state carried onto ``P``: located from it directly
+    (:func:`fold_from`), and if that fails (the state outside Newton's
+    basin of the fold system) from the state settled first as an
+    equilibrium on the section of its null vector ``v`` (L free,
+    :func:`~skfem_sheet.engine.fold.equilibrium_on_section`).  With
+    ``settle_first`` (the point needed settling on the coarser mesh it
+    comes from) the two are tried the other way round: the carried state's
+    distance to the fold comes from the difference of two meshes, of one
+    order from one level to the next, so a point that left the basin on one
+    level leaves it on the next too (measured at paper quality, hmax 0.06
+    to 0.03 at a/R 3.5 and 5: 6 of 6 such points, whose failed direct tries
+    cost 3 linearisations each, or 7 for one that got there; but at hmax
+    0.15 to 0.1, a/R 3.5, the one such point converged directly, and the
+    settle cost 3 linearisations more).
+    Returns ``(fold or None, result, factorisations of the failed tries,
+    settled)``: ``settled`` whether the fold was located from the settled
+    state; without a fold, ``result`` is the last try's, and its
+    factorisations are not among those of the failed tries.
+
+    Examples
+    --------
+    The fold ``lam = 2 / (3 sqrt 3)`` of ``u^3 - u + lam = 0`` from a
+    state near it, directly and settled first:
+
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = FunctionProblem(lambda u, p: u**3 - u + p[0],
+    ...                     lambda u, p: np.diag(3 * u**2 - 1), ("L",))
+    >>> u, p, v = np.array([0.6]), np.array([0.38]), np.ones(1)
+    >>> [(round(float(f.p[0]), 9), settled) for f, _, _, settled in
+    ...  (settled_fold(P, None, "L", u, p, v, FINE_TOLERANCES, first) for first in (False, True))]
+    [(0.384900179, False), (0.384900179, True)]
+    """
+    lost = 0
+    for settle in ((True, False) if settle_first else (False, True)):
+        if settle:
+            start = equilibrium_on_section(P, u, p, "L", (v, np.zeros_like(p), P.inner(v, u)),
+                                           tol=tol)
+            lost += start.stats.factorizations
+            if not start.converged:
+                res = start
+                continue
+            fold, res = fold_from(P, section, name, start.u, start.p, v, tol)
+        else:
+            fold, res = fold_from(P, section, name, u, p, v, tol)
+        if fold is not None:
+            return fold, res, lost, settle
+        lost += res.stats.factorizations
+    return None, res, lost - res.stats.factorizations, False
 
 
 def continue_to_end(pts, last, want, j, bounds_j, length_range, tol, check_inertia):
@@ -371,7 +418,9 @@ def run(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, series=Non
         spent += lost
         meshes += len(fine.meshes)
         per = [q.factorizations for q in pts]
+        settled = sum(bool(q.kept is not None and q.kept.settle) for q in pts)
         stages.append(dict(hmax=h, points=len(pts), failed=len(failed), refilled=refilled,
+                           settled=settled,
                            factorizations=int(sum(per)) + lost,
                            factorizations_per_point=float(np.median(per)) if per else None))
         for P in {id(q.problem): q.problem for q in points}.values():

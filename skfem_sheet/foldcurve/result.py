@@ -89,8 +89,11 @@ class FoldCurve:
     coarse_hmax: object = None
     coarse_points: object = None
     coarse_factorizations: object = None
-    #: Per refinement level: ``{"hmax", "points", "failed", "factorizations",
-    #: "factorizations_per_point"}`` (the last one is ``hmax``).
+    #: Per refinement level: ``{"hmax", "points", "failed", "refilled",
+    #: "settled", "factorizations", "factorizations_per_point"}`` (the last
+    #: one is ``hmax``; ``refilled``: points traced on that mesh,
+    #: ``settled``: points located from their carried state settled first,
+    #: :func:`~skfem_sheet.foldcurve.refine.settled_fold`).
     stages: tuple = ()
 
     def _at_start_value(self, kind):
