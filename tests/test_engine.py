@@ -164,6 +164,25 @@ def test_pseudo_arclength_passes_both_folds_of_an_s_curve():
 # ---------------------------------------------------------------------------
 # fold curves and the cusp
 # ---------------------------------------------------------------------------
+def test_fold_curve_without_cusp_location_has_the_same_points():
+    # max_cusp_iterations=0 (the coarse trace of a curve refined coarse to
+    # fine): the cusp is not located, its sign change stays in the points'
+    # fold coefficient, and the curve is the same point for point, with
+    # fewer factorisations
+    P = cusp_problem()
+    start, _ = locate_fold(P, np.array([0.8]), np.array([-0.5, 1.0]), "lam")
+    kw = dict(ds=0.1, direction=-1)
+    located = fold_curve(P, start, ("lam", "mu"), ((-1.0, 1.0), (-0.5, 1.0)), **kw)
+    seeds = fold_curve(P, start, ("lam", "mu"), ((-1.0, 1.0), (-0.5, 1.0)),
+                       max_cusp_iterations=0, **kw)
+    assert located.completed and seeds.completed
+    assert len(located.cusps) == 1 and seeds.cusps == ()
+    np.testing.assert_array_equal(seeds.params, located.params)
+    a = np.array([pt.a for pt in seeds.points])
+    assert np.count_nonzero(np.sign(a[1:]) != np.sign(a[:-1])) == 1
+    assert seeds.stats.factorizations < located.stats.factorizations
+
+
 def test_fold_curve_of_the_cusp_normal_form():
     P = cusp_problem()
     start, _ = locate_fold(P, np.array([0.8]), np.array([-0.5, 1.0]), "lam")

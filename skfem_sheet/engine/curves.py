@@ -182,6 +182,10 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
     tol : Tolerances
     cusp_tol : float
         Arclength tolerance of the cusp location.
+    max_cusp_iterations : int
+        Most fold corrections of one cusp location; 0: cusps are not
+        located (the sign change of the fold coefficient stays in the
+        points' ``a``).
     check_inertia : bool or int
         Factorise on both sides of every fold (True) or of every n-th point (n);
         a check due at a degenerate fold (``|a|`` below 1 % of the largest
@@ -333,7 +337,7 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
             t_new = unit(*_tangent(counter, ex["bordered"], len(u)), prev=t)
         except EngineFailure as err:
             return finish(points, cusps, reason=f"tangent: {err}")
-        if np.sign(ex["a"]) != np.sign(a_prev) and a_prev != 0:
+        if np.sign(ex["a"]) != np.sign(a_prev) and a_prev != 0 and max_cusp_iterations > 0:
             f_cusp = counter.f
             cusp = _locate_cusp(counter, v, idx, t, u, p, h, a_prev, ex["a"], tol, full,
                                 cusp_tol, max_cusp_iterations)

@@ -382,7 +382,8 @@ def run(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, series=Non
     t0 = time.perf_counter()
     kept = Collector()
     coarse = trace(curvature, tip_width, j, bounds_j,
-                   dataclasses.replace(options, hmax=coarse_hmax, check_inertia=0), collect=kept)
+                   dataclasses.replace(options, hmax=coarse_hmax, check_inertia=0), collect=kept,
+                   seeds=True)
     info = dict(hmax=hmax, coarse_hmax=coarse_hmax, coarse_points=len(coarse.points),
                 coarse_factorizations=coarse.factorizations)
     if not coarse.bistable or len(kept.points) < 2:

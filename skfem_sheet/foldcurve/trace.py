@@ -27,6 +27,7 @@ from .options import (
     MAX_REMESHES,
     PREDICTOR,
     SECOND,
+    SEED_TOLERANCES,
     TARGET_CORRECTION,
     FoldCurveOptions,
     default_start_length,
@@ -100,10 +101,16 @@ def standout_fold(make, P, u, p, hi, tol):
     locating it, the fold is located from the last point, or (twice at most)
     the continuation goes on from there on a fresh mesh.  Returns ``(P, fold or None, factorisations,
     reason)``; ``reason`` is ``""`` when the branch reached ``hi`` without a fold."""
+    # a step past the fold is given up once a correction outgrows the one
+    # two linearisations before (the rows' continuation in L does the same,
+    # ``Tolerances.pair_contraction``): measured at hmax 0.1, a/R 1.5, 3.5
+    # and 5, 79, 84 and 87 factorisations instead of 101, 100 and 125, the
+    # same folds
+    steps = dataclasses.replace(tol, pair_contraction=True)
     nfact, retries = 0, 0
     for _ in range(MAX_REMESHES + 1):
         stop = min(hi, P.mesh_parameters[0] * REMESH_STRETCH)
-        branch = natural(P, u, p, "L", stop, step=0.05, min_step=1e-3, tol=tol, jump=0.1,
+        branch = natural(P, u, p, "L", stop, step=0.05, min_step=1e-3, tol=steps, jump=0.1,
                          keep_states=False)
         nfact += branch.stats.factorizations
         if branch.fold is not None:
@@ -175,7 +182,8 @@ def _strip(pt):
     return dataclasses.replace(pt, u=None)
 
 
-def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=None):
+def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=None,
+          seeds=False):
     """Standout fold at ``(tip_width, curvature)``, then its fold curve in
     ``(L, p_j)`` from the start value of ``p_j`` (``bounds_j[1]``) downward
     and back, remeshing on the way (:func:`~skfem_sheet.foldcurve.trace_fold_curve`).
@@ -183,6 +191,12 @@ def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=
     ``collect(P, point, u, v)``, if given, sees every point of the curve
     with its problem, state and null vector (and ``collect.drop_last()``,
     if it has one, is called where a remesh repeats a point).
+
+    ``seeds``: the curve's points only seed a refinement on finer meshes
+    (coarse to fine, :func:`~skfem_sheet.foldcurve.refine.run`), where each
+    is corrected again and the cusp is located.  Newton then stops on its
+    own error estimate (:data:`SEED_TOLERANCES`) and the cusp is not
+    located on the way (the curve's cusp is the turn of ``p_j``).
     """
     o = options
     hmax = check_range("hmax", o.hmax, 0.02, 0.5)
@@ -198,7 +212,7 @@ def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=
     t0 = time.perf_counter()
     make = MeshMaker(curvature, hmax, o.mesh_keywords)
     P = make(mesh_length or 1.08 * start_length, tip_width)
-    tol = TOLERANCES
+    tol = SEED_TOLERANCES if seeds else TOLERANCES
     p0 = np.array([start_length, tip_width, curvature])
     u0, f_start = P.solve_state(p0, "curvature-first")
     P, fold, f_branch, why = standout_fold(make, P, u0, p0, hi, tol)
@@ -225,6 +239,7 @@ def trace(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, collect=
             box = P.remesh_box(j, (lo, hi), bounds_j)
             seg = fold_curve(P, fold, ("L", name), box, ds=ds, ds_min=1e-4, ds_max=ds_max,
                              direction=direction, tol=tol, cusp_tol=1e-4,
+                             max_cusp_iterations=0 if seeds else 40,
                              check_inertia=check_inertia, easy_iterations=3,
                              predictor=PREDICTOR, target_correction=TARGET_CORRECTION,
                              max_points=max(2, max_points - len(points)), keep_states=True,
