@@ -220,7 +220,7 @@ def refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, end
             fold, res = None, dataclasses.replace(res, reason="the other kind of fold")
         if fold is None:
             failures.append(f"{name} = {c.p[j]:.4f}, L/a = {c.p[0]:.4f}: {res.reason}")
-            spent += lost + res.stats.factorizations + Pf.refactorizations - f0
+            spent += lost + Pf.refactorizations - f0
             continue
         crossing, extra = None, 0
         if check_inertia and (end or n % int(check_inertia) == 0):
@@ -252,8 +252,7 @@ def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
     settle cost 3 linearisations more).
     Returns ``(fold or None, result, factorisations of the failed tries,
     settled)``: ``settled`` whether the fold was located from the settled
-    state; without a fold, ``result`` is the last try's, and its
-    factorisations are not among those of the failed tries.
+    state; without a fold, ``result`` is the last try's (all tries failed).
 
     Examples
     --------
@@ -283,7 +282,7 @@ def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
         if fold is not None:
             return fold, res, lost, settle
         lost += res.stats.factorizations
-    return None, res, lost - res.stats.factorizations, False
+    return None, res, lost, False
 
 
 def continue_to_end(pts, last, want, j, bounds_j, length_range, tol, check_inertia):
@@ -419,9 +418,8 @@ def run(curvature, tip_width, j, bounds_j, options: FoldCurveOptions, series=Non
         spent += lost
         meshes += len(fine.meshes)
         per = [q.factorizations for q in pts]
-        settled = sum(bool(q.kept is not None and q.kept.settle) for q in pts)
         stages.append(dict(hmax=h, points=len(pts), failed=len(failed), refilled=refilled,
-                           settled=settled,
+                           settled=sum(q.kept.settle for q in pts),
                            factorizations=int(sum(per)) + lost,
                            factorizations_per_point=float(np.median(per)) if per else None))
         for P in {id(q.problem): q.problem for q in points}.values():

@@ -665,13 +665,12 @@ def pool(chunks, n_workers, task, failed):
     threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
     are set.
     """
-    new_pool = _new_pool
     threads = max(1, (os.cpu_count() or 1) // n_workers)
     queue = list(reversed(chunks))
     ex = None
     with _thread_env(threads):
         try:
-            ex = new_pool(n_workers)
+            ex = _new_pool(n_workers)
             running = {}
             while queue or running:
                 broken = False
@@ -705,8 +704,8 @@ def pool(chunks, n_workers, task, failed):
                 if broken:
                     _stop_pool(ex, kill=True)
                     ex = None
-                    yield from _isolated(suspects, new_pool, task, failed)
-                    ex = new_pool(n_workers)
+                    yield from _isolated(suspects, _new_pool, task, failed)
+                    ex = _new_pool(n_workers)
         except BaseException:
             if ex is not None:
                 _stop_pool(ex, kill=True)
