@@ -17,6 +17,7 @@ moved (the map of one trapezoid onto another, for the tip width).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 from skfem import Basis, ElementTetP1, ElementTetP2
@@ -24,7 +25,23 @@ from skfem import Basis, ElementTetP1, ElementTetP2
 from .mesh import SheetMesh
 from .params import check_range
 
-__all__ = ["TaylorHoodSpace", "SaddlePointLayout"]
+__all__ = ["TaylorHoodSpace", "SaddlePointLayout", "det_inv", "element_laplacian"]
+
+
+def det_inv(F):
+    """Determinant and inverse of a stack of 3x3 matrices (explicit cofactors,
+    several times faster than ``np.linalg`` on many tiny matrices)."""
+    a, b, c = F[..., 0, 0], F[..., 0, 1], F[..., 0, 2]
+    d, e, f = F[..., 1, 0], F[..., 1, 1], F[..., 1, 2]
+    g, h, i = F[..., 2, 0], F[..., 2, 1], F[..., 2, 2]
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    J = a * A + b * B + c * C
+    cof = np.stack([np.stack([A, c * h - b * i, b * f - c * e], -1),
+                    np.stack([B, a * i - c * g, c * d - a * f], -1),
+                    np.stack([C, b * g - a * h, a * e - b * d], -1)], -2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Finv = cof / J[..., None, None]
+    return J, Finv
 
 
 def element_laplacian(dx, dphi):
@@ -85,8 +102,6 @@ class TaylorHoodSpace:
     fixed, free : ndarray
         Sorted fixed and free dofs (``fixed``: the clamp dofs and, for a half
         model, ``U_y`` on the symmetry plane).
-    laplacian : ndarray (nel, 10, 10)
-        ``int grad phi_a . grad phi_b`` per element (stretched).
     load_z : ndarray (ndof,)
         ``int phi_a`` on the z-displacement dofs, 0 elsewhere: the derivative
         of ``int U_z dV`` (the weight vector at unit weight density).
@@ -118,7 +133,6 @@ class TaylorHoodSpace:
     symmetry_nodes: np.ndarray
     fixed: np.ndarray
     free: np.ndarray
-    laplacian: np.ndarray
     load_z: np.ndarray
     volume: float
     reference: TaylorHoodSpace | None = None
@@ -164,8 +178,7 @@ class TaylorHoodSpace:
                    nu_dof=nu_dof, element_nodes=en, element_vertices=ev, edofs=edofs,
                    clamp_nodes=clamp_nodes, clamp_dofs=clamp_dofs,
                    symmetry_nodes=symmetry_nodes, fixed=np.flatnonzero(is_fixed),
-                   free=np.flatnonzero(~is_fixed), laplacian=element_laplacian(dx, dphi),
-                   load_z=load_z, volume=float(dx.sum()))
+                   free=np.flatnonzero(~is_fixed), load_z=load_z, volume=float(dx.sum()))
 
     def __repr__(self):
         m = self.mesh
@@ -173,6 +186,22 @@ class TaylorHoodSpace:
                 f"refine={m.refine}, length={self.length:g}, "
                 f"quadrature_order={self.quadrature_order}, n_elements={self.n_elements}, "
                 f"ndof={self.ndof}, n_free={self.n_free})")
+
+    @cached_property
+    def _edge_inverse(self) -> np.ndarray:
+        """The inverses of the elements' edge matrices (nel, 3, 3), the
+        columns of each the edges from its first vertex (of the mesh as
+        built; :meth:`mapped` maps from them)."""
+        X0 = self.mesh.mesh.p[:, self.mesh.mesh.t]  # (3, 4, nel)
+        return det_inv(np.transpose(X0[:, 1:] - X0[:, :1], (2, 0, 1)))[1]
+
+    @cached_property
+    def laplacian(self) -> np.ndarray:
+        """``int grad phi_a . grad phi_b`` per element (stretched or mapped),
+        shape (nel, 10, 10): the constant part of the tangent, computed on
+        first use (a space made for residuals alone, e.g. at a difference
+        step in a parameter, never needs it)."""
+        return element_laplacian(self.dx, self.dphi)
 
     # -- sizes ---------------------------------------------------------------
     @property
@@ -216,8 +245,7 @@ class TaylorHoodSpace:
         dphi[..., 0] /= s
         dx = ref.dx * s
         return replace(ref, length=length, dphi=dphi, dx=dx,
-                       nodes=ref.nodes * np.array([s, 1.0, 1.0]),
-                       laplacian=element_laplacian(dx, dphi), load_z=ref.load_z * s,
+                       nodes=ref.nodes * np.array([s, 1.0, 1.0]), load_z=ref.load_z * s,
                        volume=ref.volume * s, reference=ref)
 
     def mapped(self, mesh: SheetMesh) -> TaylorHoodSpace:
@@ -250,24 +278,23 @@ class TaylorHoodSpace:
         True
         """
         t = self.mesh.mesh.t
-        X0 = self.mesh.mesh.p[:, t]  # (3, 4, nel)
         X1 = mesh.mesh.p[:, t]
-        E0 = np.transpose(X0[:, 1:] - X0[:, :1], (2, 0, 1))  # (nel, 3, 3): columns are edges
-        E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))
-        A = E1 @ np.linalg.inv(E0)  # x1 - x1_0 = A (x0 - x0_0)
-        Ainv = np.linalg.inv(A)
+        E1 = np.transpose(X1[:, 1:] - X1[:, :1], (2, 0, 1))  # (nel, 3, 3): columns are edges
+        A = E1 @ self._edge_inverse  # x1 - x1_0 = A (x0 - x0_0)
+        det, Ainv = det_inv(A)
         dphi = np.matmul(self.dphi, Ainv[:, None])  # (batched products, not einsum)
-        dx = self.dx * np.abs(np.linalg.det(A))[:, None]
+        dx = self.dx * np.abs(det)[:, None]
+        # the P2 nodes: the vertices, then the midpoints of the (straight) edges
+        # in the order of the mesh's edges (scikit-fem's numbering, see build)
+        V, edges = mesh.mesh.p.T, self.mesh.mesh.edges
+        nodes = np.concatenate([V, 0.5 * (V[edges[0]] + V[edges[1]])])
         en = self.element_nodes
-        rel = self.nodes[en] - X0[:, 0].T[:, None, :]  # (nel, 10, 3)
-        nodes = np.empty_like(self.nodes)
-        nodes[en] = np.matmul(rel, A.transpose(0, 2, 1)) + X1[:, 0].T[:, None, :]
         load_z = np.zeros(self.ndof)
         load_z[:self.nu_dof] = np.bincount(
             (3 * en + 2).ravel(), np.matmul(dx[:, None, :], self.phi2).ravel(),
             minlength=self.nu_dof)
         return replace(self, mesh=mesh, length=mesh.length, dphi=dphi, dx=dx, nodes=nodes,
-                       laplacian=element_laplacian(dx, dphi), load_z=load_z,
+                       load_z=load_z,
                        volume=float(dx.sum()), reference=None)
 
 

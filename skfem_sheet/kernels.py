@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .discretisation import det_inv
+
 __all__ = ["clamp_displacement", "clamp_displacement_rate", "kinematics", "det_inv",
            "first_piola", "element_residuals", "element_tangent_blocks",
            "strain_energy_density", "first_invariant", "second_piola",
@@ -85,22 +87,6 @@ def kinematics(Ue, dphi):
     F[..., 1, 1] += 1.0
     F[..., 2, 2] += 1.0
     return F
-
-
-def det_inv(F):
-    """Determinant and inverse of a stack of 3x3 matrices (explicit cofactors,
-    several times faster than ``np.linalg`` on many tiny matrices)."""
-    a, b, c = F[..., 0, 0], F[..., 0, 1], F[..., 0, 2]
-    d, e, f = F[..., 1, 0], F[..., 1, 1], F[..., 1, 2]
-    g, h, i = F[..., 2, 0], F[..., 2, 1], F[..., 2, 2]
-    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
-    J = a * A + b * B + c * C
-    cof = np.stack([np.stack([A, c * h - b * i, b * f - c * e], -1),
-                    np.stack([B, a * i - c * g, c * d - a * f], -1),
-                    np.stack([C, b * g - a * h, a * e - b * d], -1)], -2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        Finv = cof / J[..., None, None]
-    return J, Finv
 
 
 def first_piola(F, p, mu):

@@ -88,7 +88,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from skfem import MeshTet
 
-from ..discretisation import TaylorHoodSpace, element_laplacian
+from ..discretisation import TaylorHoodSpace
 from ..linalg import LinearSolverError, make_linear_solver
 from ..mesh import SheetMesh
 from ..params import ParameterError, Planform, Sheet
@@ -288,8 +288,7 @@ def scaled_problem(problem: SheetProblem, *, length=None, thickness=None) -> She
     dphi[..., 2] /= sz
     dx = space.dx * (sx * sz)
     scaled = replace(space, length=L * sx, dphi=dphi, dx=dx,
-                     nodes=space.nodes * np.array([sx, 1.0, sz]),
-                     laplacian=element_laplacian(dx, dphi), load_z=space.load_z * (sx * sz),
+                     nodes=space.nodes * np.array([sx, 1.0, sz]), load_z=space.load_z * (sx * sz),
                      volume=space.volume * sx * sz)
     sheet = problem.sheet.replace(length=L * sx, thickness=h2)
     return SheetProblem(sheet, space.mesh, problem.quadrature_order, space=scaled,
