@@ -612,7 +612,8 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
     The equilibria are the fine mesh's (to Newton's tolerance), the folds
     bracketed on it; measured at hmax 0.03 from 0.1 (rows L/a 0.5-3, steps
     0.05): 0.71 of the wall time of the fine mesh alone on the bistable
-    rectangle at a/R 2.5, 0.42 on the monotone b/a 0.4 (``benchmarks/results/speed/fold_map_rows_hmax0.03.txt``).
+    rectangle at a/R 2.5, 0.42 on the monotone b/a 0.4
+    (``benchmarks/results/speed/fold_map_rows_hmax0.03.txt``).
 
     Examples
     --------
