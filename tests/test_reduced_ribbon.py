@@ -266,6 +266,13 @@ def test_map_table_and_png(tmp_path):
     assert (tmp_path / "m.csv").read_text().splitlines()[0].startswith("curvature,tip_width")
 
 
+def test_map_calls_on_shape_once_per_shape_factor():
+    seen = []
+    rows = ribbon_map(2.5, [1.3, 1.4], [0.0, 0.5, 1.0], on_shape=lambda: seen.append(len(seen)))
+    assert seen == [0, 1, 2]
+    assert len(rows) == 3 * 2 * 2  # shape factors x directions x lengths
+
+
 @pytest.mark.slow
 def test_map_parallel_matches_serial():
     kw = dict(curvature=2.5, lengths=np.linspace(1.0, 1.6, 7), tip_widths=[0.0, 0.9])

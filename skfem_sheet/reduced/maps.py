@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
 
 import numpy as np
 
@@ -39,7 +40,7 @@ def _one_shape(args):
 
 def ribbon_map(curvature: float, lengths, tip_widths, thickness: float = 0.03,
                modulus: float = 735.0, n_elements: int = DEFAULT_ELEMENTS,
-               workers: int = 1):
+               workers: int = 1, on_shape=None):
     """Tip deflection of the ribbon model over a grid of lengths and shape factors.
 
     Parameters
@@ -53,7 +54,11 @@ def ribbon_map(curvature: float, lengths, tip_widths, thickness: float = 0.03,
     n_elements : int
         Elements of each ribbon solve.
     workers : int
-        Processes over shape factors (1 = serial).
+        Processes over shape factors (1 = serial; else one pool of ``workers``
+        processes for all of them).
+    on_shape : callable() or None
+        Called as each shape factor's two continuations are in (e.g. a
+        progress bar's ``update``).
 
     Returns
     -------
@@ -76,11 +81,17 @@ def ribbon_map(curvature: float, lengths, tip_widths, thickness: float = 0.03,
                                 curvature=curvature, thickness=thickness, modulus=modulus))
                  for b in widths]
     tasks = [(t, lengths, n_elements) for t in templates]
-    if workers == 1:
-        chunks = [_one_shape(t) for t in tasks]
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            chunks = list(pool.map(_one_shape, tasks))
+    chunks = []
+    with ExitStack() as stack:
+        if workers == 1:
+            done = map(_one_shape, tasks)
+        else:
+            pool = stack.enter_context(ProcessPoolExecutor(max_workers=workers))
+            done = pool.map(_one_shape, tasks)
+        for chunk in done:  # in the order of the shape factors
+            chunks.append(chunk)
+            if on_shape is not None:
+                on_shape()
     return [row for chunk in chunks for row in chunk]
 
 
