@@ -115,7 +115,7 @@ def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, worke
         # one pool per curvature, the bar moved by each shape (measured at
         # paper quality, 2 workers: 59.6 s against 63.2 s for a pool per
         # four shapes, the same table)
-        n = min(workers if workers is not None else 1, tips.size)
+        n = workers if workers is not None else 1
         rows = []
         with tqdm(total=len(_FIG6_CURVATURES) * tips.size, desc="fig6 ribbon map",
                   unit="shape", disable=not progress, leave=None) as bar:

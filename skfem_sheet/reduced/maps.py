@@ -86,7 +86,7 @@ def ribbon_map(curvature: float, lengths, tip_widths, thickness: float = 0.03,
         if workers == 1:
             done = map(_one_shape, tasks)
         else:
-            pool = stack.enter_context(ProcessPoolExecutor(max_workers=workers))
+            pool = stack.enter_context(ProcessPoolExecutor(max_workers=min(workers, len(tasks))))
             done = pool.map(_one_shape, tasks)
         for chunk in done:  # in the order of the shape factors
             chunks.append(chunk)
