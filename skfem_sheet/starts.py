@@ -12,6 +12,10 @@ a :class:`Reached` (the end state at full load and its history):
     is transferred (state and null vector) and located again on the fine mesh
     with the minimally augmented test function
     (:func:`~skfem_sheet.engine.fold.fold_on_branch`, a few factorisations).
+    The fine fold must be of the coarse one's kind, a fold where the load
+    turns back (the branch's solutions below it); one where the load turns up
+    is the other fold of a fold pair the fine mesh has there, where a branch
+    begins, and the load path runs on the fine mesh instead.
     A fine fold inside its phase: the fine sheet snaps there too (its fold
     load and deflections are the fine mesh's).  A fine fold beyond the phase's
     full load: it does not, and the fine branch before the fold is finished
@@ -20,11 +24,12 @@ a :class:`Reached` (the end state at full load and its history):
     mesh.  Without (more) folds the coarse end state is transferred and
     finished by Newton at full load (where Newton leaves its basin and no
     snap was carried, by the pseudo-transient settle of a snap and Newton,
-    :func:`~skfem_sheet.continuation.settle`), accepted by the load path's
-    step rule (its distance from the carried state at most four times the
-    nominal corrector distance: it stayed on the coarse path's branch) and
-    verified stable; otherwise the load path runs on the fine mesh instead
-    (the record says why).
+    :func:`~skfem_sheet.continuation.settle`; after a carried snap, by the
+    load path on the fine mesh from the last snap's landing state),
+    accepted by the load path's step rule (its distance from the carried
+    state at most four times the nominal corrector distance: it stayed on
+    the coarse path's branch) and verified stable; otherwise the load path
+    runs on the fine mesh instead (the record says why).
 
 The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
 at most 0.2 (:meth:`CoarseStart.coarse_mesh`): hmax 0.1 for the paper's
@@ -329,6 +334,19 @@ class CoarseStart:
                 return fall_back(f"the coarse fold in the {name} phase at "
                                  f"{fold.snap.load:.6g} was not located on hmax {hmax:g}", seen)
             lam = located.value
+            if located.side != -1:
+                # a load path's fold ends its branch: the load turns back there
+                # (the branch's solutions lie below the fold load, side -1).  A
+                # fold with its solutions above it is where a branch begins as
+                # the load grows -- the lower fold of a fold pair that the fine
+                # mesh has near the coarse fold -- and nothing snaps there
+                # (measured: L 1.63, b 0.65, a/R 3.37, h 0.02, curvature-first
+                # at hmax 0.1 from 0.2: the coarse fold at 0.2349 carried to the
+                # fine pair's lower fold at 0.1814, the fine path's fold at 0.2185)
+                return fall_back(f"the coarse fold in the {name} phase at "
+                                 f"{fold.snap.load:.6g} was located on hmax {hmax:g} at "
+                                 f"{lam:.6g}, a fold where the load turns up (a branch begins "
+                                 f"there), not where the sheet snaps", seen)
             inside = lam <= 1.0
             seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
                          "snapped": inside})
@@ -371,13 +389,27 @@ class CoarseStart:
         res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
         iterations = res.iterations
         if not res.converged and folds:
-            # a snap was carried: the distance rule below checks the end state
-            # only, not that the fine sheet reached the fold on the coarse
-            # path's branch (measured: L 1.63, b 0.65, a/R 3.37, h 0.02 of the
-            # regression set, settled to the path's end state to 3e-13 but with
-            # a fold at 0.181 on another fine branch, the path's at 0.218)
-            return fall_back(f"fine Newton from the coarse end state failed after a carried "
-                             f"snap: {res.reason}", seen)
+            # a snap was carried: the fine sheet is on its landing state at the
+            # last fold's load, and the load path goes on from there on the
+            # fine mesh (not a settle from the coarse end state: the distance
+            # rule below checks the end state only, not that the fine sheet
+            # came there on the branch it landed on)
+            log.debug("fine Newton from the coarse end state failed (%s): the fine path from "
+                      "the last landing", res.reason)
+            last = folds[-1]
+            ilast = names.index(last.snap.phase)
+            out = _path(job, w0=last.landing, resume=(last.snap.phase, last.snap.load))
+            if not out.converged:
+                return fall_back(f"fine Newton from the coarse end state failed after a carried "
+                                 f"snap ({res.reason}), and so did the fine path from the "
+                                 f"landing: {out.reason}", seen)
+            job.report(1.0)
+            out.steps[:0] = [x for x in coarse.steps
+                             if (names.index(x[0]), x[1]) <= (ilast, last.snap.load)]
+            out.snaps[:0] = [f.snap for f in folds]
+            out.folds[:0] = folds
+            out.rejected_steps += coarse.rejected_steps
+            return out, record("", seen)
         if not res.converged:
             # outside Newton's basin (measured: the long sheets' end states
             # carried from hmax 0.2 to 0.1, 0.05 apart, Newton diverging):
@@ -526,18 +558,19 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
 def _before_fold(sheet, phase, fold, tol):
     """The equilibrium at full load of ``phase`` (``lam = 1``) on the branch
     before the fold ``fold`` at ``lam* > 1``: predicted from the fold's normal
-    form ``lam - lam* = c s^2`` along its null vector ``v`` (``c = -a / (2 v .
-    R_lam)``) on the stable side (``a s > 0``), solved by Newton; the full
-    dof vector, or None."""
+    form ``lam - lam* = c s^2`` along its null vector ``v`` (``|c| = |a / (2 v .
+    R_lam)|``, ``c < 0``: the fold's branch lies below it, ``fold.side``) on
+    the stable side (``a s > 0``), solved by Newton; the full dof vector, or
+    None."""
     counter = Counting(phase)
     u, p, v = fold.u, fold.p, fold.v
     r_lam = counter.dresidual(u, p, 0)
     vr = float(v @ r_lam)
-    if fold.a == 0 or vr == 0:
+    if fold.a == 0 or vr == 0 or fold.side != -1:
         return None
-    c = -fold.a / (2.0 * vr)
-    if not c * (1.0 - fold.value) > 0:
-        return None
+    # the branch lies below the fold load (side -1, from the branch's own
+    # curvature in the load): c < 0, its size from the normal form
+    c = -abs(fold.a / (2.0 * vr))
     s = np.sign(fold.a) * np.sqrt((1.0 - fold.value) / c)
     res = correct(counter, u + s * v, np.array([1.0]), plain_linearization(counter), tol)
     if not res.converged:

@@ -232,6 +232,29 @@ def test_fold_on_branch_gives_up_at_a_minimum_of_the_load_rate_and_follows_an_ov
     assert f is not None and abs(f.value - 2.0 / 3.0) <= 1e-9
 
 
+@pytest.mark.parametrize("start", [1.05, 0.97])
+def test_fold_on_branch_reads_the_fold_s_side_from_the_branch_s_curvature_in_the_load(start):
+    """The side of a fold (where its branch's solutions lie) from the last
+    section's curvature of the load, ``p - p* = g' (c - c*)^2 / 2``.  The
+    spring ``x - x^3/3 = eps lam`` (fold at x = 1, lam* = 2/(3 eps),
+    solutions below) with a second unknown that the load moves hard and the
+    mode not at all, ``y = B lam``: at a section off the fold (here past it)
+    ``v . R_lam`` of the branch's direction there is ``-eps - B^2 g`` with
+    ``g = dlam/dx < 0``, so ``-sign(a v . R_lam)`` gives the wrong side
+    (+1) once ``B^2 |g| > eps``; ``g'`` does not."""
+    eps, B = 1e-2, 10.0
+    P = FunctionProblem(lambda u, p: np.array([u[0] - u[0]**3 / 3 - eps * p[0],
+                                               u[1] - B * p[0]]),
+                        lambda u, p: np.diag([1 - u[0]**2, 1.0]), ("lam",))
+    lam0 = (start - start**3 / 3) / eps
+    c = Counting(P)
+    f, res = engine.fold.fold_on_branch(c, np.array([start, B * lam0]), np.array([lam0]),
+                                        "lam", np.array([1.0, 0.0]), ptol=1e-3)
+    assert f is not None
+    assert abs(f.value - 2 / (3 * eps)) <= 1e-3 * 2 / (3 * eps)
+    assert f.side == -1
+
+
 @pytest.mark.parametrize("one_sided", [False, True])
 def test_sigma_derivatives_from_residuals_are_the_exact_third_derivatives(one_sided):
     # E = u1^4/4 + p0 u1 u2^2 + p1 u2^3/3: R = grad E is cubic in u and linear

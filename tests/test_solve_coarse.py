@@ -1,6 +1,8 @@
 """The start strategies of ``solve`` (skfem_sheet/starts.py): the load path on
 a coarse mesh carried to the fine one by its located folds, against the load
 path on the fine mesh itself."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -245,14 +247,17 @@ def test_a_carried_state_outside_newton_s_basin_is_settled_onto_the_path_s_state
     assert fast.factorizations < full.factorizations
 
 
-def test_a_carried_snap_whose_end_state_newton_cannot_finish_falls_back(popping, monkeypatch):
-    """With a snap carried, a failed Newton at the end is not settled: the
-    distance rule would check the end state only, not that the fine sheet met
-    its fold on the coarse path's branch (measured on the regression set's
-    long thin sheet: the path's end state to 3e-13, the fold on another
-    branch).  The path runs on the fine mesh and its snap is reported."""
+def test_a_carried_snap_whose_end_state_newton_cannot_finish_goes_on_from_the_landing(
+        popping, monkeypatch):
+    """With a snap carried, a failed Newton at the end is not settled (the
+    distance rule would check the end state only, not that the fine sheet came
+    there on the branch it landed on), nor is the whole path run again: the
+    load path goes on from the fine landing state at the fine fold (measured:
+    L 1.3, b 1, a/R 2.5, E 100, curvature-first at hmax 0.1 from 0.2, 130
+    fine factorisations with the path run again, 48 from the landing, the
+    same end state and snap)."""
     full, _ = popping
-    real, calls, settles = starts_module.newton, [], []
+    real, calls, settles, paths = starts_module.newton, [], [], []
 
     def counted(*args, **kwargs):
         calls.append(1)
@@ -270,13 +275,50 @@ def test_a_carried_snap_whose_end_state_newton_cannot_finish_falls_back(popping,
             return NewtonResult(w, False, 1, "diverging")
         return real(problem, w, *rest, **options)
 
+    real_path = starts_module._path
+
+    def path(job, w0=None, resume=None, on_step=...):
+        paths.append(resume)
+        return real_path(job, w0=w0, resume=resume, on_step=on_step)
+
     monkeypatch.setattr(starts_module, "newton", fails_last)
     monkeypatch.setattr(starts_module, "settle", lambda *a: settles.append(1))
+    monkeypatch.setattr(starts_module, "_path", path)
     back = solve(*args, **kwargs)
     assert len(calls) >= 2 * last and settles == []
-    assert back.coarse_fallback.startswith("fine Newton from the coarse end state failed "
-                                           "after a carried snap")
-    # the path on the same mesh again (to round-off: measured 4e-14 in the load)
+    assert back.coarse_fallback == ""
+    # the coarse path's, then the fine path resumed at the fine fold's load
+    fold = back.start_record.folds[0]
+    assert fold["snapped"] and paths[-1] == ("curvature", fold["load"])
+    assert [s.phase for s in back.snaps] == [s.phase for s in full.snaps] == ["curvature"]
+    assert back.snaps[0].load == pytest.approx(full.snaps[0].load, rel=1e-6)
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-6)
+    assert back.stable
+    assert back.factorizations < full.factorizations
+
+
+def test_a_coarse_fold_located_where_the_load_turns_up_is_not_snapped_from(popping,
+                                                                          monkeypatch):
+    """A fold where the branch's solutions lie above the fold load (side +1:
+    a branch begins there as the load grows) is not where a load path's
+    branch ends; the fine mesh has a fold pair there, and the path runs on the
+    fine mesh instead of snapping at the wrong fold of it (measured: L 1.63,
+    b 0.65, a/R 3.37, h 0.02, curvature-first at hmax 0.1 from 0.2, the
+    coarse fold at 0.2349 located on the fine pair's lower fold, 0.1814; the
+    path's is at 0.2185)."""
+    full, _ = popping
+    real = starts_module._fold_on_fine
+
+    def lower_fold(*args):
+        located = real(*args)
+        return replace(located, side=1)
+
+    monkeypatch.setattr(starts_module, "_fold_on_fine", lower_fold)
+    back = solve(Sheet(1.3, 1.0, 6.0), path="gravity-first", hmax=0.12,
+                 start=CoarseStart(hmax=0.25, **NEAR))
+    assert "a fold where the load turns up" in back.coarse_fallback
+    assert back.start_record.folds == ()
+    # the path's own snap, on the fine mesh (to round-off: measured 3e-14 in the load)
     assert [s.phase for s in back.snaps] == [s.phase for s in full.snaps] == ["curvature"]
     assert back.snaps[0].load == pytest.approx(full.snaps[0].load, rel=1e-9)
     assert back.deflection == pytest.approx(full.deflection, rel=1e-9)

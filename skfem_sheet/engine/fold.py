@@ -18,7 +18,10 @@ bordered matrix is symmetric)::
 further factorisation; :meth:`FoldSystem.sigma_derivatives`).  The quadratic fold
 coefficient is ``a = v . D^2 R[v, v] = -(d sigma / du) . v``; near a fold in
 ``p_i`` the branch is ``p_i - p_i* ~ -a s^2 / (2 v . R_{p_i})``, so solutions
-exist on the side ``-sign(a v . R_{p_i})`` of the fold.
+exist on the side ``-sign(a v . R_{p_i})`` of the fold (with the null vector
+at the fold itself; :func:`fold_on_branch`, whose last section lies within
+the load tolerance before the fold, reads the side off the branch's own
+curvature in ``p_i`` instead).
 
 A fold is located by Newton's method on ``R = 0, sigma = 0`` in ``(u, p_i)``:
 each iteration costs one factorisation (the bordered solves are
@@ -305,8 +308,11 @@ def inertia_crossing(counter, u, p, v, step):
 def fold_point(counter, res: NewtonResult, i, check_inertia, inertia_step, stats):
     ex = res.extra
     v, sigma, a = ex["v"], ex["sigma"], ex["a"]
-    vr = float(v @ ex["R_p"][:, 0])
-    side = int(-np.sign(a * vr)) if a * vr != 0 else 0
+    if "side" in ex:
+        side = int(ex["side"])
+    else:
+        vr = float(v @ ex["R_p"][:, 0])
+        side = int(-np.sign(a * vr)) if a * vr != 0 else 0
     crossing = inertia_crossing(counter, res.u, res.p, v, inertia_step) if check_inertia else None
     return FoldPoint(res.u, res.p, v, sigma, a, side, i,
                      negative_besides_critical(ex["inertia"], sigma), crossing,
@@ -882,8 +888,18 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     a = float(tu @ q) / scale_v**3
     r_p = counter.dresidual(res.u, res.p, i)
     stats = counter.stats() - start
+    # the side of the fold from the branch's own curvature in the parameter,
+    # p - p* = g' (c - c*)^2 / 2: the solutions lie where g' points.  (Not
+    # from -sign(a v . R_p): that holds with the null vector at the fold
+    # itself, but the last section lies up to the load tolerance before it,
+    # where t = u' differs from the null vector by O(g) and v . R_p picks up
+    # -g R_p K^-1 R_p off the null direction, which outweighs it where the
+    # load barely moves the mode -- measured: the pop-up folds of L 1.2, b 0.8,
+    # a/R 2.5 at hmax 0.08 and L 1.3, b 1, a/R 6 at hmax 0.1, gravity-first,
+    # located from states carried from a coarser mesh one section before the
+    # fold (dp/dc -0.011), gave +1 with g' -6.9 and -2.3.)
     out = NewtonResult(u_fold, p_fold, True, stats.newton_iterations, "", (), None, stats,
                        {"v": vn, "sigma": sigma, "a": a, "R_p": r_p[:, None],
-                        "inertia": res.factorization.inertia()})
+                        "side": int(np.sign(g2)), "inertia": res.factorization.inertia()})
     fold = fold_point(counter, out, i, check_inertia, 1e-4, stats)
     return fold, out
