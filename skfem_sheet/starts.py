@@ -311,6 +311,17 @@ class CoarseStart:
         def fall_back(why, folds=()):
             return _path(job), record(why, folds)
 
+        def after_coarse(out, steps):
+            """The fine path ``out``, which went on from a carried state, with
+            the coarse path's history before it (``steps``) and the folds
+            carried so far."""
+            job.report(1.0)
+            out.steps[:0] = steps
+            out.snaps[:0] = [f.snap for f in folds]
+            out.folds[:0] = folds
+            out.rejected_steps += coarse.rejected_steps
+            return out, record("", seen)
+
         if not coarse.converged:
             return fall_back(f"coarse path failed: {coarse.reason}")
         phases = load_phases(job.path, job.kappa, job.gravity)
@@ -376,12 +387,7 @@ class CoarseStart:
             if not out.converged:
                 return fall_back(f"the fine path after the fold in the {name} phase failed: "
                                  f"{out.reason}", seen)
-            job.report(1.0)
-            out.steps[:0] = steps
-            out.snaps[:0] = [f.snap for f in folds]
-            out.folds[:0] = folds
-            out.rejected_steps += coarse.rejected_steps
-            return out, record("", seen)
+            return after_coarse(out, steps)
         # the coarse end state, finished on the fine mesh at full load
         job.report(share + (1.0 - share) * len(coarse.folds) / (len(coarse.folds) + 1))
         w0 = transfer(cproblem, coarse.w, fine)
@@ -403,13 +409,8 @@ class CoarseStart:
                 return fall_back(f"fine Newton from the coarse end state failed after a carried "
                                  f"snap ({res.reason}), and so did the fine path from the "
                                  f"landing: {out.reason}", seen)
-            job.report(1.0)
-            out.steps[:0] = [x for x in coarse.steps
-                             if (names.index(x[0]), x[1]) <= (ilast, last.snap.load)]
-            out.snaps[:0] = [f.snap for f in folds]
-            out.folds[:0] = folds
-            out.rejected_steps += coarse.rejected_steps
-            return out, record("", seen)
+            return after_coarse(out, [x for x in coarse.steps
+                                      if (names.index(x[0]), x[1]) <= (ilast, last.snap.load)])
         if not res.converged:
             # outside Newton's basin (measured: the long sheets' end states
             # carried from hmax 0.2 to 0.1, 0.05 apart, Newton diverging):

@@ -291,8 +291,12 @@ def test_a_carried_snap_whose_end_state_newton_cannot_finish_goes_on_from_the_la
     fold = back.start_record.folds[0]
     assert fold["snapped"] and paths[-1] == ("curvature", fold["load"])
     assert [s.phase for s in back.snaps] == [s.phase for s in full.snaps] == ["curvature"]
-    assert back.snaps[0].load == pytest.approx(full.snaps[0].load, rel=1e-6)
-    assert back.deflection == pytest.approx(full.deflection, rel=1e-6)
+    # the fine fold is located from the carried state to the fold tolerance, the
+    # path's own from its steps (measured 5.8e-7 apart); the end state is the
+    # same equilibrium (measured 1.1e-15 in d)
+    assert back.snaps[0].load == pytest.approx(full.snaps[0].load,
+                                               abs=StepOptions().fold_tolerance)
+    assert back.deflection == pytest.approx(full.deflection, rel=1e-9)
     assert back.stable
     assert back.factorizations < full.factorizations
 
