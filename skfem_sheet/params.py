@@ -1,9 +1,16 @@
 """Dimensionless parameters of a clamped, curved, sagging sheet.
 
-Everything in skfem_sheet is dimensionless: lengths are scaled by the base
-width ``a`` and energy densities by ``rho g a`` (paper, section
+Everything in skfem_sheet is computed dimensionless: lengths are scaled by
+the base width ``a`` and energy densities by ``rho g a`` (paper, section
 "Finite-element simulations").  So ``length = L/a``, ``tip_width = b/a``,
-``curvature = a/R``, ``thickness = h/a`` and ``modulus = E/(rho g a)``.
+``curvature = a/R``, ``thickness = h/a`` and ``modulus = E/(rho g a)``.  A
+sheet made from SI quantities (:meth:`Sheet.from_si`) keeps the scales it
+was made with (:class:`SIScale`: ``a``, ``rho``, ``g``), so that its answers
+can be reported in SI units too (:attr:`Sheet.si`).
+
+The mesh size of results is :data:`DEFAULT_HMAX` (the paper's, about 0.03 a);
+:data:`QUICK_HMAX` is the documented quick value (a first look, tests,
+notebooks: numbers within a few per cent of the results' mesh).
 """
 from __future__ import annotations
 
@@ -17,9 +24,12 @@ from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
 __all__ = [
+    "DEFAULT_HMAX",
     "POISSON_RATIO",
+    "QUICK_HMAX",
     "ParameterError",
     "Planform",
+    "SIScale",
     "Sheet",
     "check_finite",
     "check_integer",
@@ -33,6 +43,17 @@ class ParameterError(ValueError):
 
 #: Poisson's ratio of the incompressible neo-Hookean solid.
 POISSON_RATIO = 0.5
+
+#: The mesh size (in-plane edge length, units of a) of results: the paper's
+#: (its FE meshes have a largest element diameter of about 0.03 a; tip
+#: deflections converge at second order in it, within 1% beyond).  The
+#: default of every analysis (``solve``, ``solve_both``, ``fold_lengths``,
+#: ``s_curve``, ``fold_curve``, ``sweep``, ``calibrate``).
+DEFAULT_HMAX = 0.03
+#: The documented quick mesh size: a first look, the tests, the notebooks
+#: (about 1/10 of the unknowns of :data:`DEFAULT_HMAX`; deflections within a
+#: few per cent, fold lengths within about 0.01 a of it).
+QUICK_HMAX = 0.1
 
 #: Clamp curvatures a/R must stay below this: the clamped base (width 1) is
 #: bent into a circular arc of angle a/R, which closes on itself at 2 pi.
@@ -259,6 +280,21 @@ class Planform:
         b = check_range("tip_width", tip_width, 0, 100)
         return cls((0.0, 1.0), (1.0, b), tuple(bites))
 
+    def __repr__(self) -> str:
+        """Its kind and sample count (the samples themselves: :meth:`to_dict`).
+
+        Examples
+        --------
+        >>> Planform.from_function(lambda s: 1 + 0.2 * s * s)
+        Planform(profile of 65 samples, tip width 1.2)
+        >>> Planform.trapezoid(0.5, bites=(0.2,))
+        Planform(trapezoid, tip width 0.5, 1 bite)
+        """
+        kind = "trapezoid" if self.is_linear else f"profile of {len(self.xi)} samples"
+        bites = (f", {len(self.bites)} bite{'s' if len(self.bites) > 1 else ''}"
+                 if self.bites else "")
+        return f"Planform({kind}, tip width {self.tip_width:.4g}{bites})"
+
     def replace_bites(self, bites) -> Planform:
         """The same profile with other bites."""
         return Planform(self.xi, self.width, tuple(bites), self.length)
@@ -483,6 +519,78 @@ def read_planform_csv(path) -> Planform:
 
 
 @dataclass(frozen=True)
+class SIScale:
+    """The SI scales of a sheet made from SI quantities (:meth:`Sheet.from_si`).
+
+    The dimensionless problem depends on them only through the ratios it is
+    written in (``L/a``, ``E/(rho g a)``, ...); they turn its answers back
+    into SI units: a length ``x`` (units of ``a``) is ``x a`` metres, a
+    stress ``s`` (units of ``rho g a``) ``s rho g a`` pascals, an energy
+    ``e`` (units of ``rho g a^4``) ``e rho g a^4`` joules.
+
+    Parameters
+    ----------
+    base_width : float
+        a in metres.
+    density : float
+        rho in kg/m^3.
+    gravity : float
+        g in m/s^2.
+
+    Examples
+    --------
+    >>> s = SIScale(0.04, 1150.0)
+    >>> s.metres(1.375), round(s.stress, 3)
+    (0.055, 451.26)
+    """
+
+    base_width: float
+    density: float
+    gravity: float = 9.81
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        set_(self, "base_width", check_range("base_width", self.base_width, 0, None,
+                                             lo_open=True, hint="a in metres"))
+        set_(self, "density", check_range("density", self.density, 0, None, lo_open=True,
+                                          hint="rho in kg/m^3"))
+        set_(self, "gravity", check_range("gravity", self.gravity, 0, None, lo_open=True,
+                                          hint="g in m/s^2"))
+
+    @property
+    def stress(self) -> float:
+        """rho g a in Pa: the unit of the moduli and stresses."""
+        return self.density * self.gravity * self.base_width
+
+    @property
+    def energy(self) -> float:
+        """rho g a^4 in J: the unit of the energies."""
+        return self.stress * self.base_width**3
+
+    def metres(self, x):
+        """A length in units of a, in metres (NaN stays NaN)."""
+        return x * self.base_width
+
+    def to_dict(self) -> dict:
+        return {"base_width": self.base_width, "density": self.density,
+                "gravity": self.gravity}
+
+    @classmethod
+    def of(cls, value):
+        """An SIScale from itself, a dict of its fields, or None."""
+        if value is None or isinstance(value, SIScale):
+            return value
+        if isinstance(value, dict):
+            unknown = set(value) - {"base_width", "density", "gravity"}
+            if unknown:
+                raise ParameterError(f"si must have the keys base_width, density, gravity, "
+                                     f"got {', '.join(sorted(unknown))}")
+            return cls(**value)
+        raise ParameterError(f"si must be an SIScale, a dict of its fields or None, got "
+                             f"{value!r}")
+
+
+@dataclass(frozen=True)
 class Sheet:
     """A sheet clamped on a circular arc, in units of its base width: a trapezoid,
     or any :class:`Planform`.
@@ -506,6 +614,11 @@ class Sheet:
         the profile's width at x = L (leave it at the default or pass that
         value; it may exceed 1).  Without a planform the sheet is the
         trapezoid exactly as before.
+    si : SIScale, optional
+        The SI scales of a sheet made from SI quantities (:meth:`from_si`
+        sets it; a dict of its fields is accepted): the answers about this
+        sheet are then reported in SI units too.  It does not enter the
+        dimensionless problem.
 
     Examples
     --------
@@ -522,6 +635,7 @@ class Sheet:
     thickness: float = 0.03
     modulus: float = 735.0
     planform: Planform | None = None
+    si: SIScale | None = None
 
     def __post_init__(self):
         # Validate up front, with a message naming the parameter and the range.
@@ -557,6 +671,7 @@ class Sheet:
             raise ParameterError(
                 f"thickness must be at most half the length ({0.5 * self.length:g}), "
                 f"got {self.thickness!r}")
+        set_(self, "si", SIScale.of(self.si))
 
     # -- derived quantities ------------------------------------------------------
     @property
@@ -654,11 +769,92 @@ class Sheet:
     def to_dict(self) -> dict:
         """The parameters as a dict (``Sheet(**d)`` rebuilds the sheet); a planform
         appears as ``{"xi": [...], "width": [...], "bites": [...]}``, the
-        trapezoid has no ``planform`` key."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "planform"}
+        trapezoid has no ``planform`` key; the SI scales of a sheet made from
+        SI quantities as ``"si": {"base_width", "density", "gravity"}``
+        (a dimensionless sheet has no ``si`` key)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)
+             if f.name not in ("planform", "si")}
         if self.planform is not None:
             d["planform"] = self.planform.to_dict()
+        if self.si is not None:
+            d["si"] = self.si.to_dict()
         return d
+
+    # -- what it is, in words ----------------------------------------------------------
+    def in_si(self) -> dict | None:
+        """The sheet's quantities in SI units (None for a sheet without
+        :attr:`si`): ``base_width``, ``length``, ``tip_width``, ``thickness``,
+        ``radius`` (m; ``inf`` for a flat clamp), ``youngs_modulus`` (Pa),
+        ``density`` (kg/m^3), ``gravity`` (m/s^2) -- the arguments of
+        :meth:`from_si`.
+
+        Examples
+        --------
+        >>> s = Sheet.from_si(0.04, 0.055, 0.036, 1.2e-3, 0.016, 6.0e5, 1150)
+        >>> s
+        Sheet(L/a = 1.375, b/a = 0.9, a/R = 2.5, h/a = 0.03, E/(rho g a) = 1329.61; SI: a = 0.04 m)
+        >>> {k: round(v, 6) for k, v in s.in_si().items()}["length"]
+        0.055
+        >>> Sheet(length=1.3).in_si() is None
+        True
+        """
+        si = self.si
+        if si is None:
+            return None
+        a = si.base_width
+        return {"base_width": a, "length": self.length * a, "tip_width": self.tip_width * a,
+                "thickness": self.thickness * a,
+                "radius": math.inf if self.curvature == 0 else a / self.curvature,
+                "youngs_modulus": self.modulus * si.stress, "density": si.density,
+                "gravity": si.gravity}
+
+    def describe(self) -> str:
+        """Every parameter in one line (what ``repr`` and the command line show).
+
+        Examples
+        --------
+        >>> Sheet(length=1.3, curvature=2.5).describe()
+        'L/a = 1.3, b/a = 1, a/R = 2.5, h/a = 0.03, E/(rho g a) = 735'
+        """
+        width = (f"b/a = {self.tip_width:.6g}" if self.planform is None
+                 else f"{self.planform!r} (b/a = {self.tip_width:.6g} at the tip)")
+        return (f"L/a = {self.length:.6g}, {width}, a/R = {self.curvature:.6g}, "
+                f"h/a = {self.thickness:.6g}, E/(rho g a) = {self.modulus:.6g}")
+
+    def describe_si(self) -> str:
+        """The SI quantities in one line ("" without :attr:`si`).
+
+        Examples
+        --------
+        >>> print(Sheet.from_si(0.04, 0.055, 0.036, 1.2e-3, 0.016, 6.0e5, 1150).describe_si())
+        a = 40 mm, L = 55 mm, b = 36 mm, h = 1.2 mm, R = 16 mm, E = 6e+05 Pa, rho = 1150 kg/m^3, g = 9.81 m/s^2
+        """
+        q = self.in_si()
+        if q is None:
+            return ""
+        mm = {k: f"{1e3 * q[k]:.4g} mm" for k in ("base_width", "length", "tip_width",
+                                                  "thickness", "radius")}
+        return (f"a = {mm['base_width']}, L = {mm['length']}, b = {mm['tip_width']}, "
+                f"h = {mm['thickness']}, R = {mm['radius']}, E = {q['youngs_modulus']:.4g} Pa, "
+                f"rho = {q['density']:.6g} kg/m^3, g = {q['gravity']:.6g} m/s^2")
+
+    def __repr__(self) -> str:
+        si = "" if self.si is None else f"; SI: a = {self.si.base_width:g} m"
+        return f"Sheet({self.describe()}{si})"
+
+    def _repr_pretty_(self, p, cycle) -> None:
+        p.text(repr(self) if cycle else "\n".join(
+            line for line in (f"Sheet: {self.describe()}", self.describe_si()) if line))
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        rows = [("dimensionless", self.describe())]
+        if self.si is not None:
+            rows.append(("SI", self.describe_si()))
+        return ("<table><caption>Sheet</caption>" + "".join(
+            f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in rows)
+            + "</table>")
 
     @classmethod
     def from_planform(cls, planform: Planform, length=None, **params) -> Sheet:
@@ -679,7 +875,8 @@ class Sheet:
     @classmethod
     def from_si(cls, base_width, length, tip_width, thickness, radius,
                 youngs_modulus, density, gravity=9.81) -> Sheet:
-        """Build a dimensionless sheet from SI quantities.
+        """Build a sheet from SI quantities: the dimensionless parameters, and
+        the scales to report its answers in SI units (:attr:`si`).
 
         Parameters
         ----------
@@ -702,6 +899,8 @@ class Sheet:
         >>> s = Sheet.from_si(0.05, 0.065, 0.05, 1.5875e-3, 0.02, 4.5e5, 1250)
         >>> round(s.modulus), s.length, s.curvature
         (734, 1.3, 2.5)
+        >>> s.si.base_width, s.in_si()["youngs_modulus"]
+        (0.05, 450000.0)
         """
         a = check_range("base_width", base_width, 0, None, lo_open=True)
         length = check_range("length", length, 0, None, lo_open=True)
@@ -727,4 +926,5 @@ class Sheet:
                 f"(rho g a = {weight!r})")
         return cls(length=length / a, tip_width=tip_width / a,
                    curvature=0.0 if math.isinf(r) else a / r,
-                   thickness=thickness / a, modulus=E / weight)
+                   thickness=thickness / a, modulus=E / weight,
+                   si=SIScale(a, rho, g))
