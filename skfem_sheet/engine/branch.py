@@ -180,8 +180,13 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
     jump : float
         A step whose equilibrium moved further than this (correction norm)
         from its prediction failed: it landed on another branch.
-    locate : bool
-        Locate a fold when a step fails (see the module docstring).
+    locate : bool or callable
+        Locate a fold when a step fails (see the module docstring).  A
+        callable ``locate(counter, u, p, i, dudp, last_try) -> FoldPoint or
+        None`` locates it instead of :func:`~skfem_sheet.engine.fold.locate_fold`
+        (e.g. along the branch, :func:`~skfem_sheet.engine.fold.fold_on_branch`,
+        for a problem whose fold system has a small basin); ``last_try`` is
+        True at the last failed step before the branch is given up.
     check_inertia : bool
         Passed to :func:`~skfem_sheet.engine.fold.locate_fold`.
     keep_states : bool
@@ -321,9 +326,12 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             # approached along the branch (if Newton on the fold system fails)
             # only before the branch is given up: after a failed step far from
             # a fold the approach would be spent for nothing
-            fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
-                                  check_inertia=check_inertia,
-                                  approach=approach if last_try else 0)
+            if callable(locate):
+                fold = locate(counter, u, p, i, dudp, last_try)
+            else:
+                fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
+                                      check_inertia=check_inertia,
+                                      approach=approach if last_try else 0)
             # a fold ahead, within the failed step (Newton at fixed parameter
             # also fails just before a fold, so allow twice the step)
             # and a turning point of this branch: solutions exist behind it

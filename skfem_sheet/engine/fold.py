@@ -839,20 +839,41 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     if pt is None:
         return failed("the equilibrium on the first section did not converge")
     scale = max(1.0, abs(float(p[i])))
-    g_last = None
+    g_last = c_last = pt_last = None
+    bracket = None  # (c, g, point) of two sections with g of opposite signs: a fold between
     for _ in range(max_iterations):
         g, g2 = pt[2], pt[4]
         if not (g2 != 0 and np.isfinite(g2)):
             return failed("the branch has no curvature in the parameter here (g' = 0)", pt[0])
+        c_here = counter.inner(v, pt[0].u)
+        if g_last is not None and g * g_last < 0:
+            bracket = ((c_last, g_last, pt_last), (c_here, g, pt))
+        elif bracket is not None:
+            (ca, ga, pa), (cb, gb, pb) = bracket
+            bracket = (((c_here, g, pt), (cb, gb, pb)) if g * ga > 0
+                       else ((ca, ga, pa), (c_here, g, pt)))
         dc = -g / g2
-        if abs(counter.inner(v, pt[0].u) + dc - c_first) > reach:
+        start_pt = pt
+        if bracket is not None:
+            (ca, ga, pa), (cb, gb, pb) = bracket
+            if not min(ca, cb) < c_here + dc < max(ca, cb):
+                # Newton would leave the bracket (past an inflection of g,
+                # towards another fold: from the curvature-dominated branch of a
+                # sheet, onto the middle branch and its pop-up fold): the secant
+                # through the bracket's ends instead, which stays inside it,
+                # predicted from the nearer end
+                c_new = (ca * gb - cb * ga) / (gb - ga)
+                start_pt = pa if abs(c_new - ca) < abs(c_new - cb) else pb
+                dc = c_new - counter.inner(v, start_pt[0].u)
+        if abs(c_here + dc - c_first) > reach:
             return failed(f"the fold is predicted further than {reach:.3g} along v", pt[0])
         log.debug("fold_on_branch: p %.10g, dp/dc %.3g, d2p/dc2 %.3g: the fold %.3g further "
                   "in p (%d factorisations so far)", pt[0].p[i], g, g2, -0.5 * g * dc,
                   (counter.stats() - start).factorizations)
         if 0.5 * abs(g * dc) <= ptol * scale:
             break
-        if g_last is not None and g * g_last > 0 and not abs(g) < abs(g_last):
+        if (bracket is None and g_last is not None and g * g_last > 0
+                and not abs(g) < abs(g_last)):
             # Newton's method contracts |g| on its way to a simple zero, or
             # overshoots it (g changes sign: a fold between the two
             # sections); an iterate where g keeps its sign and does not
@@ -862,8 +883,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             # the sections alternating about it)
             return failed(f"Newton on dp/dc = 0 does not contract (dp/dc {g:.3g} after "
                           f"{g_last:.3g}, the same sign): no fold near", pt[0])
-        g_last = g
-        nxt = along(pt, dc)
+        g_last, c_last, pt_last = g, c_here, pt
+        nxt = along(start_pt, dc)
         if nxt is None:
             return failed("a section solve on the way to the fold did not converge", pt[0])
         pt = nxt
