@@ -249,9 +249,14 @@ class SheetShapeProblem(SheetEngineProblem):
     def admissible_parameters(self, p) -> bool:
         """Where the map is valid: stretch in [1/2, 2], tip width in (0, 1.5
         b_m] and not squeezed below :data:`MIN_SQUEEZE`, a curvature in (0, 2
-        pi).  The stretch is valid at every length: always True."""
+        pi).  The stretch: a stretch in [1/2, 2] and a curvature in [0, 2 pi)
+        (a trial step of a fold system far off, e.g. to a negative length,
+        gets a NaN residual and is halved, instead of an error from the
+        mesh)."""
         if self.geometry == "stretch":
-            return True
+            s = self.values(p)[0] / self.base.sheet_mesh.length
+            kappa = self.values(p)[2]
+            return bool(0.5 <= s <= 2.0 and 0 <= kappa < 2 * np.pi)
         s, q = self.distortion(p)
         L, b, kappa = self.values(p)
         return bool(0.5 <= s <= 2.0 and MIN_SQUEEZE <= q <= 1.5 and b > 0
