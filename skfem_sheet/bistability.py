@@ -1,4 +1,4 @@
-"""Bistability: continuation in the sheet length, fold lengths, stability, the S-curve.
+"""Bistability: continuation in the sheet length, fold lengths located, the S-curve.
 
 In the bistable range a sheet has two stable equilibria (paper, Figs. 2, 4, 6
 and 7): the curvature-dominated (aloft) one, which exists up to the
@@ -6,7 +6,11 @@ and 7): the curvature-dominated (aloft) one, which exists up to the
 exists down to the *pop-up length* ``L0*``.  The sheet is bistable for
 ``L0* < L < L1*``; between the two stable branches lies an unstable one, and
 the three form an S-shaped curve of ``d`` against ``L`` whose turning points
-(folds) are ``L0*`` and ``L1*``.
+(folds) are ``L0*`` and ``L1*``.  Both are properties of the *family* of
+lengths of one planform at one clamp curvature and material: the question
+:func:`fold_lengths` answers for a :class:`~skfem_sheet.params.Sheet` (its
+planform, curvature, thickness and modulus; its own length is placed
+against them).
 
 How the length is made a continuous parameter: a problem built on a mesh of
 length ``L_m`` is stretched in x to any nearby length
@@ -16,34 +20,50 @@ rule's stretch (:data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`) the sheet
 is remeshed at the current length and the solution is interpolated onto the
 new mesh (:func:`transfer`).
 
-Every continuation here runs on the engine's drivers
+How a fold is found: every continuation here runs on the engine's drivers
 (:func:`skfem_sheet.engine.natural`, :func:`skfem_sheet.engine.arclength`),
 with the sheet adapted to the engine's problem protocol by
 :class:`~skfem_sheet.sheet_shape.SheetShapeProblem` (one parameter, L or a/R,
 on a stretched and remeshed mesh) and corrected with the sheet's Newton
-stopping rule (:func:`_chord_linearization`).
+stopping rule (:func:`_chord_linearization`).  Where a step of the
+continuation fails, the end of the branch is *located* with the minimally
+augmented fold system (:func:`skfem_sheet.engine.locate_fold`, as the fold
+curves do), never bracketed by failed solves; a branch that ends without a
+located fold says why (``Branch.reason``).  :func:`fold_lengths` then
+locates each fold once more on the results' mesh, made at the fold's own
+length (:func:`locate_on_mesh`: the fold followed along its branch,
+:func:`~skfem_sheet.engine.fold_on_branch`, to :data:`FOLD_TOL` in L/a, with
+the eigenvalue that crosses zero there confirmed), so that its value does
+not depend on how far the mesh it was first found on was stretched.
 
 Functions
 ---------
-:func:`follow_length`
-    natural continuation in L from a solved sheet, until the branch is lost:
-    the fold is bracketed by step halving to ``tol`` (bisection);
 :func:`fold_lengths`
-    ``L0*`` and ``L1*`` of one (b, a/R): curvature-first from a short sheet
-    with increasing L, gravity-first from a long sheet with decreasing L;
+    ``L0*`` and ``L1*`` of a sheet's planform at its curvature and material
+    (:class:`FoldLengths`): the curvature-dominated branch followed from a
+    short sheet with increasing L, the gravity-dominated one from a long
+    sheet with decreasing L, their ends located;
+:func:`follow_length`
+    natural continuation in L from a solved sheet, until the branch ends
+    (its fold located) or the range does;
 :func:`follow_curvature`
     the same in the clamp curvature at fixed L (critical curvatures
     ``1/R0*`` and ``1/R1*``);
 :func:`s_curve`
     pseudo-arclength continuation in L through both folds, tracing the
     unstable middle branch;
+:func:`fold_position`
+    where one length sits against the fold lengths;
 :func:`stability`
     stable or not, from the inertia of the constrained tangent.
 """
 from __future__ import annotations
 
+import math
+import numbers
 import time
-from dataclasses import dataclass, replace
+import warnings
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -52,16 +72,85 @@ from .analyses.stability import stability
 from .analyses.transfer import transfer
 from .continuation import StepOptions
 from .engine import EngineFailure, Tolerances, arclength, correct, natural
+from .engine.fold import fold_on_branch, inertia_crossing
 from .engine.protocol import Counting
+from .foldcurve.options import MESH_LENGTH_GRID
+from .foldcurve.refine import settled_fold
 from .newton import NewtonOptions, Stats
-from .params import ParameterError, Sheet, check_range
-from .sheet_shape import REMESH_STRETCH, SheetShapeProblem
+from .params import DEFAULT_HMAX, QUICK_HMAX, ParameterError, Sheet, check_range
+from .sheet_shape import REMESH_STRETCH, TOLERANCES, SheetShapeProblem
 from .solve import build_problem
 from .starts import CoarseStart, Job
 from .version import __version__
 
-__all__ = ["BranchPoint", "Branch", "Bistability", "SCurve", "stability", "transfer",
-           "follow_length", "follow_curvature", "fold_lengths", "s_curve"]
+__all__ = ["BranchPoint", "Branch", "Fold", "FoldLengths", "FoldPosition", "Bistability",
+           "SCurve", "FOLD_TOL", "TRACE_HMAX", "stability", "transfer", "follow_length",
+           "follow_curvature", "fold_lengths", "fold_lengths_of", "fold_position", "fold_range",
+           "locate_on_mesh", "s_curve", "trace_mesh"]
+
+#: The folds of :func:`fold_lengths` are located to this in L/a (the fold
+#: system's own tolerance on the load, ``ptol`` of
+#: :func:`~skfem_sheet.engine.fold_on_branch`, relative to ``max(1, L)``: the
+#: last section's remaining move towards the fold, whose prediction is
+#: exact to second order, so that the error is far smaller): far below the
+#: discretisation's effect on them (about 1e-3 a from hmax 0.06 to 0.03) and
+#: the mesh's own (about 1e-4 a between two unstructured meshes of one size
+#: at hmax 0.03, see :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID`).
+FOLD_TOL = 1e-6
+
+#: The mesh on which :func:`fold_lengths` traces the branches where the
+#: results' mesh is finer (coarse to fine, :func:`trace_mesh`): its folds are
+#: then located again on the fine mesh, a few factorisations each.
+TRACE_HMAX = QUICK_HMAX
+
+#: Smallest step of a continuation in L or a/R: a step this short that fails
+#: where no fold can be located ends the branch (``Branch.reason`` says why).
+MIN_STEP = 0.005
+
+
+def trace_mesh(hmax: float, coarse_hmax=None) -> float:
+    """The mesh the branches of :func:`fold_lengths` are traced on for
+    results on ``hmax``: ``coarse_hmax`` if given (coarser than ``hmax``;
+    0 or ``hmax``: none, the results' mesh itself), else :data:`TRACE_HMAX`
+    where ``hmax`` is finer, else ``hmax``.
+
+    Examples
+    --------
+    >>> trace_mesh(0.03), trace_mesh(0.1), trace_mesh(0.2), trace_mesh(0.03, 0)
+    (0.1, 0.1, 0.2, 0.03)
+    """
+    hmax = check_range("hmax", hmax, 0, None, lo_open=True)
+    if coarse_hmax is None:
+        return max(hmax, TRACE_HMAX)
+    if coarse_hmax == 0 or coarse_hmax == hmax:
+        return hmax
+    return check_range("coarse_hmax", coarse_hmax, hmax, None, lo_open=True,
+                       hint="a coarser mesh than hmax, or 0 for none")
+
+
+def fold_range(length: float, lengths=None) -> tuple:
+    """The range of L/a searched for the folds of a sheet of ``length``:
+    ``lengths`` (checked to hold it), or 0.6 to 2.4 widened to hold it with a
+    margin (0.8 and 1.25 times it).
+
+    Examples
+    --------
+    >>> fold_range(1.375), fold_range(3.0), fold_range(1.3, (1.0, 1.7))
+    ((0.6, 2.4), (0.6, 3.75), (1.0, 1.7))
+    """
+    if lengths is None:
+        return (min(0.6, 0.8 * length), max(2.4, min(20.0, 1.25 * length)))
+    try:
+        lo, hi = (float(x) for x in lengths)
+    except (TypeError, ValueError):
+        raise ParameterError(f"lengths must be (short, long), got {lengths!r}") from None
+    lo, hi = (check_range("lengths", x, 0.05, 20.0) for x in (lo, hi))
+    if not lo < hi:
+        raise ParameterError(f"lengths must be (short, long) with short < long, got {lengths!r}")
+    if not lo <= length <= hi:
+        raise ParameterError(f"lengths must hold the sheet's length {length:g}: "
+                             f"short <= {length:g} <= long, got {lengths!r}")
+    return lo, hi
 
 
 @dataclass(frozen=True)
@@ -110,23 +199,33 @@ class _Curve:
 
 @dataclass(frozen=True)
 class Branch(_Curve):
-    """Result of :func:`follow_length`.
+    """Result of :func:`follow_length` (and :func:`follow_curvature`).
 
     Attributes
     ----------
     points : tuple of BranchPoint
         The converged equilibria, in the order of the continuation.
     fold : float or None
-        The length where the branch was lost (midpoint of the bracket), or
-        None if it held over the whole range.
+        The parameter value (length, or curvature) of the fold where the
+        branch ends, located with the minimally augmented system; None if
+        the branch held over the whole range, or ended without a located
+        fold (``reason`` says why).
     bracket : tuple
-        ``(last length on the branch, first length where it was not found)``.
+        ``(last value on the branch, the value of the step that failed)``
+        where the branch ended short of its range (a fold or not).
     reason : str
-        Why the branch was declared lost at the bracket's end.
+        Why the continuation ended short of its range ("" if it did not).
     start_snapped : bool
         The starting solve (along its load path) snapped to the other
         branch: the branch the path selects does not exist at the start
         length, and the points are on the other one.
+    fold_deflection : float
+        d/a at the fold (NaN without one).
+    fold_point : FoldPoint or None
+        The located fold (:class:`skfem_sheet.engine.FoldPoint`: state,
+        parameter, null vector) on ``problem``, the continuation's problem
+        (its mesh at the fold); dropped from the branches :func:`fold_lengths`
+        returns.
     """
 
     points: tuple
@@ -136,6 +235,21 @@ class Branch(_Curve):
     newton_iterations: int = 0
     wall_time_s: float = 0.0
     start_snapped: bool = False
+    fold_deflection: float = math.nan
+    fold_point: object = field(default=None, repr=False, compare=False)
+    problem: object = field(default=None, repr=False, compare=False)
+
+    def without_states(self) -> Branch:
+        """The branch without its fold's state and problem (memory)."""
+        return replace(self, fold_point=None, problem=None)
+
+    def summary(self) -> dict:
+        """JSON-ready: the points, the fold and why the branch ended."""
+        return {"lengths": self.lengths.tolist(), "deflection": self.deflections.tolist(),
+                "stable": self.stable, "fold": self.fold,
+                "fold_deflection": self.fold_deflection, "bracket": list(self.bracket),
+                "reason": self.reason, "start_snapped": self.start_snapped,
+                "newton_iterations": self.newton_iterations, "wall_time_s": self.wall_time_s}
 
 
 # ----------------------------------------------------------------------------
@@ -222,40 +336,55 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
     return linearize
 
 
-def _check_common(sheet, hmax, step, tol):
+def _check_common(sheet, hmax, step):
     if not isinstance(sheet, Sheet):
         raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
     check_range("hmax", hmax, 0, None, lo_open=True)
-    check_range("step", step, 0, 1, lo_open=True)
-    check_range("tol", tol, 0, step, lo_open=True)
+    check_range("step", step, MIN_STEP, 1)
 
 
-def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", hmax: float = 0.06,
-                  layers=None, solver: str = "auto", symmetric: bool = True, step: float = 0.1,
-                  tol: float = 0.005, jump: float = 0.1, progress=None,
-                  on_point=None, start=None) -> Branch:
+def _min_step(tol, min_step):
+    """``min_step``, or the deprecated ``tol`` (the half-width of the old
+    bisection's bracket) in its place, with a warning."""
+    if tol is not None:
+        warnings.warn("tol is deprecated: folds are located, not bracketed; pass min_step "
+                      "(the shortest step tried before a branch is given up)",
+                      DeprecationWarning, stacklevel=3)
+        if min_step is None:
+            min_step = tol
+    return MIN_STEP if min_step is None else check_range("min_step", min_step, 0, 1,
+                                                        lo_open=True)
+
+
+def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first",
+                  hmax: float = DEFAULT_HMAX, layers=None, solver: str = "auto",
+                  symmetric: bool = True, step: float = 0.1, min_step=None, jump: float = 0.1,
+                  progress=None, on_point=None, start=None, tol=None) -> Branch:
     """Follow the branch selected by ``path`` at ``sheet.length`` to ``stop``.
 
     Natural continuation in L at full load: each step is predicted with
     ``dw/dL`` and corrected by Newton.  A step fails if Newton does not
     converge, if the equilibrium found is unstable, or if the deflection
-    jumps by more than ``jump`` (it landed on another branch); then the step
-    is halved from the last equilibrium.  When a failing step is no longer
-    than ``2 tol`` the branch is lost there: the fold is the middle of the
-    bracket, to ``+- tol`` (bisection).
+    jumps by more than ``jump`` (it landed on another branch); the fold is
+    then located from the last equilibrium with the minimally augmented
+    system, followed along the branch (:func:`_branch_end`,
+    :func:`skfem_sheet.engine.fold_on_branch`), and the branch ends at it if
+    it lies within the failed step.  Otherwise the step is halved, down to
+    ``min_step``.
 
     Parameters
     ----------
     sheet : Sheet
-        Start: its length, tip width and curvature.
+        Start: its length, planform, curvature and material.
     stop : float
         Length at which to stop if the branch holds (above or below the start).
     path : {"curvature-first", "gravity-first"}
         Load path of the starting solve (selects the branch).
     step : float
         Largest length step.
-    tol : float
-        Half-width of the final fold bracket.
+    min_step : float
+        Shortest step tried (default :data:`MIN_STEP`): a step this short
+        that fails where no fold is located ends the branch, with the reason.
     on_point : callable(problem, w, length) or None
         Called with the state of each point of the branch (e.g.
         ``skfem_sheet.io.Series().on_point``, then ``Branch.write_series``).
@@ -265,10 +394,16 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
         :class:`~skfem_sheet.starts.CoarseStart` (the load path on a coarse
         mesh, carried here: a few factorisations on a fine mesh instead of the
         whole path).
+    tol : float
+        Deprecated (the bracket of the bisection this replaced): read as
+        ``min_step``.
 
     Returns
     -------
     Branch
+        ``fold``: the located fold on the continuation's mesh (stretched by
+        up to :data:`~skfem_sheet.sheet_shape.REMESH_STRETCH` from where it
+        was made; :func:`fold_lengths` locates it again on a mesh made at it).
 
     Examples
     --------
@@ -277,21 +412,23 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first", h
     (True, 3)
     """
     return _follow("L", sheet, stop, path=path, hmax=hmax, layers=layers,
-                   solver=solver, symmetric=symmetric, step=step, tol=tol, jump=jump,
-                   progress=progress, on_point=on_point, start=start)
+                   solver=solver, symmetric=symmetric, step=step,
+                   min_step=_min_step(tol, min_step), jump=jump, progress=progress,
+                   on_point=on_point, start=start)
 
 
-def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", hmax: float = 0.06,
-                     layers=None, solver: str = "auto", symmetric: bool = True,
-                     step: float = 0.25, tol: float = 0.005, jump: float = 0.1,
-                     progress=None, on_point=None) -> Branch:
+def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first",
+                     hmax: float = DEFAULT_HMAX, layers=None, solver: str = "auto",
+                     symmetric: bool = True, step: float = 0.25, min_step=None,
+                     jump: float = 0.1, progress=None, on_point=None, tol=None) -> Branch:
     """Follow a branch in the clamp curvature a/R at fixed length, to ``stop``.
 
     The same natural continuation as :func:`follow_length`, with the clamp
     curvature as the parameter (the clamped values change; the mesh does
-    not).  From the gravity-dominated state at a small curvature, increasing
-    a/R finds where it pops up (``1/R0*``); from the curvature-dominated state
-    at a large curvature, decreasing a/R finds where it falls (``1/R1*``).
+    not, so the fold located is the fold on this mesh).  From the
+    gravity-dominated state at a small curvature, increasing a/R finds where
+    it pops up (``1/R0*``); from the curvature-dominated state at a large
+    curvature, decreasing a/R finds where it falls (``1/R1*``).
     ``Branch.fold`` and the branch points' ``length`` field then hold
     curvatures.
 
@@ -302,24 +439,85 @@ def follow_curvature(sheet: Sheet, stop: float, *, path: str = "gravity-first", 
     (True, 3)
     """
     return _follow("a/R", sheet, stop, path=path, hmax=hmax,
-                   layers=layers, solver=solver, symmetric=symmetric, step=step, tol=tol,
-                   jump=jump, progress=progress, on_point=on_point)
+                   layers=layers, solver=solver, symmetric=symmetric, step=step,
+                   min_step=_min_step(tol, min_step), jump=jump, progress=progress,
+                   on_point=on_point)
 
 
 #: Allowed range of the end ``stop`` of a continuation in L and in a/R (:func:`_follow`).
 _STOP_RANGE = {"L": dict(lo=0.05, hi=20.0), "a/R": dict(lo=0.0, hi=2 * np.pi, hi_open=True)}
 
 
-def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, tol, jump,
-            progress, on_point=None, start=None, record=None, guide=None, twin=None):
-    """Natural continuation in ``name`` ("L" or "a/R") with fold bisection
-    (see :func:`follow_length`), on the engine's driver
+#: How far along the branch (in the section coordinate of
+#: :func:`~skfem_sheet.engine.fold_on_branch`, units of a) the end of a
+#: continuation is looked for from its last equilibrium: the state moves by at
+#: most a few tenths of a between an equilibrium a step before a fold and
+#: the fold.
+_END_REACH = 0.5
+
+
+def _branch_end(direction, ahead):
+    """The locator of a continuation's end (``natural``'s ``locate``) in the
+    direction ``direction`` (+1: the parameter increases): the fold where a
+    step failed, followed along the branch from the last equilibrium
+    (:func:`~skfem_sheet.engine.fold_on_branch`: each iterate an equilibrium
+    on a section of ``dw/dp``, Newton on ``dp/dc = 0``, the load to
+    :data:`FOLD_TOL`), or None.
+
+    Newton on the whole fold system (:func:`~skfem_sheet.engine.locate_fold`)
+    leaves a thin sheet's strongly curved branch at its first step and fails
+    from there (the rectangle at a/R 2.5, hmax 0.2: from 0.005 before its
+    standout fold); along the branch it does not.  First, without a
+    factorisation, the branch's quadratic model says whether a fold can be
+    near: with the tangent ``u' = dw/dp`` (given) and ``K u'' = -D^2 R[t, t]``
+    along ``t = (u', 1)`` (three residuals, a back-substitution with the
+    last factorisation), the section coordinate ``c = <v, u>`` along ``v =
+    u'/|u'|`` has ``c' = |u'|`` and ``c'' = <u', u''>/|u'|``, and the vertex
+    of ``p(c)`` -- the fold of the quadratic model -- lies ``c'/(2 c'')``
+    away in ``p``.  Where it lies behind (``c''`` of the other sign: the
+    branch straightens out ahead) or further than ``ahead``, the step failed
+    for another reason (a long step on a stiff branch) and no search is made
+    (but at the last try before the branch is given up).
+    """
+    def locate(counter, u, p, i, dudp, fact, last_try):
+        if fact is not None and not last_try:  # the last try searches whatever the model says
+            try:
+                e = counter.fd_state_step ** 0.5 * max(1.0, abs(float(p[i])))
+                e /= max(1.0, float(np.abs(dudp).max()))
+                pp, pm = p.copy(), p.copy()
+                pp[i] += e
+                pm[i] -= e
+                q = (counter.residual(u + e * dudp, pp) - 2.0 * counter.residual(u, p)
+                     + counter.residual(u - e * dudp, pm)) / e**2
+                u2 = fact.solve(-q)
+                c1 = float(np.sqrt(counter.inner(dudp, dudp)))
+                c2 = float(counter.inner(dudp, u2)) / c1
+            except EngineFailure:
+                c2 = math.nan
+            if np.isfinite(c2) and c2 != 0:
+                to_fold = c1 / (2.0 * c2)
+                if not 0 < to_fold * direction <= ahead:
+                    return None
+        fold, _ = fold_on_branch(counter, u, p, i, dudp, tol=TOLERANCES, ptol=FOLD_TOL,
+                                 reach=_END_REACH)
+        return fold
+    return locate
+
+
+def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, jump,
+            progress, min_step=MIN_STEP, on_point=None, start=None, record=None, guide=None,
+            twin=None, locate=True):
+    """Natural continuation in ``name`` ("L" or "a/R") to ``stop``, its end
+    located (see :func:`follow_length`), on the engine's driver
     :func:`skfem_sheet.engine.natural`: predictor ``dw/dp`` with the last
     factorisation, the sheet's Newton stopping rule, a step failing when
-    Newton fails, the equilibrium is unstable or the deflection jumps,
-    halved down to the bracket ``2 tol``; in L the mesh is remeshed (and the
-    state transferred) before a step beyond the stretch limit.  The arguments
-    are checked here (``stop`` against :data:`_STOP_RANGE` of ``name``).
+    Newton fails, the equilibrium is unstable or the deflection jumps; at a
+    failed step the fold is located from the last equilibrium along the
+    branch (``locate``, :func:`_branch_end`) and ends the branch if it lies
+    within the failed step, else the step is halved down to ``min_step``; in L the
+    mesh is remeshed (and the state transferred) before a step beyond the
+    stretch limit.  The arguments are checked here (``stop`` against
+    :data:`_STOP_RANGE` of ``name``).
 
     ``start``: how the first point (and a remeshed state that Newton cannot
     finish) is reached (:func:`_along_path`).
@@ -331,9 +529,12 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
     another mesh (the end of the continuation the other way): if Newton from
     it, carried here, lands on the start state, both continuations trace one
     branch, and a :class:`_SameBranch` (the work of the start and the check)
-    is returned instead of tracing it again."""
-    _check_common(sheet, hmax, step, tol)
+    is returned instead of tracing it again.  ``locate`` False: no fold is
+    looked for (a continuation up to a fold already located, e.g. the
+    branch on a fine mesh up to its fold)."""
+    _check_common(sheet, hmax, step)
     stop = check_range("stop", stop, **_STOP_RANGE[name])
+    min_step = min(float(min_step), float(step))
     t0 = time.perf_counter()
     stats = Stats()
     P = _branch_problem(sheet, name, hmax, layers, solver, symmetric)
@@ -386,18 +587,20 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, t
                 f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
         return moved
 
-    b = natural(counter, out.w[P.free], p0, 0, stop, step=step, min_step=tol, bracket=2 * tol,
-                tol=_tolerances(guard, pair_contraction=True), locate=False,
+    b = natural(counter, out.w[P.free], p0, 0, stop, step=step, min_step=min_step,
+                tol=_tolerances(guard, pair_contraction=True),
+                locate=(_branch_end(1.0 if stop >= p0[0] else -1.0, 4 * step) if locate
+                        else False),
                 inertia_change=False, grow_after=None, check=check, before_step=before_step,
                 on_step=on_step, keep_states=False, linearization=_chord_linearization,
                 progress=progress, start=(out.w[P.free], P.held(out.w[P.free], p0)),
                 guide=_Guide(guide, P) if guide and name == "L" else None)
-    fold = None
-    if b.bracket and not b.reason.startswith("remeshing") and not b.completed:
-        fold = 0.5 * (b.bracket[0] + b.bracket[1])
+    fold = b.fold
     nits = stats.newton_iterations + b.stats.factorizations
-    return Branch(tuple(points), fold, tuple(b.bracket) if fold is not None else (), b.reason,
-                  nits, time.perf_counter() - t0, start_snapped=len(out.snaps) > 0)
+    return Branch(tuple(points), None if fold is None else fold.value, tuple(b.bracket),
+                  b.reason, nits, time.perf_counter() - t0, start_snapped=len(out.snaps) > 0,
+                  fold_deflection=(math.nan if fold is None else P.deflection(fold.u, fold.p)),
+                  fold_point=fold, problem=None if fold is None else P)
 
 
 def _along_path(P, p, path, stats, start=None):
@@ -517,161 +720,684 @@ def _remeshed(P, counter, u, p, path, stats, start=None):
     return out.w[P.free], P.held(out.w[P.free], p)
 
 
+#: The kind of fold at the end of each branch, and the side its branch lies on
+#: (:attr:`skfem_sheet.engine.FoldPoint.side`: the curvature-dominated branch
+#: exists below ``L1*``, the gravity-dominated one above ``L0*``).
+_KINDS = {"standout": ("curvature-dominated", -1), "popup": ("gravity-dominated", +1)}
+
+
 @dataclass(frozen=True)
-class Bistability:
-    """Pop-up and standout lengths of one (tip width, curvature).
+class Fold:
+    """A fold length located on one mesh: the end of one stable branch.
 
     Attributes
     ----------
-    popup_length : float or None
-        ``L0*``: below it the gravity-dominated branch does not exist (None if
-        it held down to the lower end of the range).
-    standout_length : float or None
-        ``L1*``: above it the curvature-dominated branch does not exist (None
-        if it held up to the upper end).
-    bistable : bool
-        Both folds found with ``L0* < L1*`` and their brackets disjoint
-        (``L1* - L0* > 2 tol``): a bistable range narrower than the fold
-        resolution is not claimed (near the cusp where it closes, e.g. the
-        rectangle at a/R = 1).
-    increasing, decreasing : Branch
-        The two continuations (curvature-first from the short end,
-        gravity-first from the long end; one and the same at a/R = 0, and
-        where the gravity-first state at the long end is the end of the
-        curvature-first continuation: a single branch, traced once).
-        ``start_snapped`` on either means its branch does not exist at the
-        end of the range it started from (widen ``lengths``).
-    coarse_hmax : float or None
-        The mesh the branches were first traced on (coarse to fine), or None.
-    coarse_newton_iterations : int
-        The linearisations of those coarse traces.
-    """
-
-    tip_width: float
-    curvature: float
-    hmax: float
-    length_range: tuple
-    popup_length: object
-    standout_length: object
-    bistable: bool
-    increasing: Branch
-    decreasing: Branch
-    tol: float = 0.005
-    wall_time_s: float = 0.0
-    coarse_hmax: object = None
-    coarse_newton_iterations: int = 0
-
-    def summary(self) -> dict:
-        """JSON-ready summary (the CLI's ``--json``)."""
-        def branch(b):
-            return {"lengths": b.lengths.tolist(), "deflection": b.deflections.tolist(),
-                    "stable": b.stable, "fold": b.fold,
-                    "bracket": list(b.bracket), "reason": b.reason,
-                    "newton_iterations": b.newton_iterations, "wall_time_s": b.wall_time_s}
-
-        width = (self.standout_length - self.popup_length
-                 if self.popup_length is not None and self.standout_length is not None else None)
-        return {"popup_length": self.popup_length, "standout_length": self.standout_length,
-                "bistable": self.bistable, "bistable_width": width, "tip_width": self.tip_width,
-                "curvature": self.curvature, "hmax": self.hmax, "tol": self.tol,
-                "length_range": list(self.length_range),
-                "curvature_dominated": branch(self.increasing),
-                "gravity_dominated": branch(self.decreasing),
-                "one_branch": self.decreasing is self.increasing,
-                "coarse_hmax": self.coarse_hmax,
-                "coarse_newton_iterations": self.coarse_newton_iterations,
-                "wall_time_s": self.wall_time_s, "version": __version__}
-
-
-def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6, 2.4),
-                 hmax: float = 0.06, layers=None, solver: str = "auto", step: float = 0.1,
-                 tol: float = 0.005, thickness: float = 0.03, modulus: float = 735.0,
-                 progress: bool = False, on_point=(None, None),
-                 coarse_hmax: float | None = None) -> Bistability:
-    """Standout and pop-up lengths by continuation in L in both directions.
-
-    The curvature-dominated branch is followed from ``lengths[0]``
-    (curvature-first) with increasing L until it is lost (``L1*``), the
-    gravity-dominated one from ``lengths[1]`` (gravity-first) with decreasing
-    L (``L0*``).  Each fold is located to ``+- tol``.  ``on_point`` is the
-    pair of the two continuations' ``on_point`` (see :func:`follow_length`).
-
-    ``coarse_hmax`` (coarser than ``hmax``): coarse to fine.  Both branches
-    are traced on that mesh first; the fine ones start from the sheet solved
-    by :class:`~skfem_sheet.starts.CoarseStart` (the load path on the coarse
-    mesh, carried), and each fine step's prediction is corrected by the
-    coarse branch's second-order part (:class:`_Guide`).
-
-    Where the curvature-dominated branch reaches ``lengths[1]`` without a
-    fold (and, coarse to fine, neither coarse branch has one), the
-    gravity-first start there is checked to be that branch's end
-    (:func:`_same_state`) and the branch is traced once (``decreasing is
-    increasing``; unless ``on_point[1]`` asks for its states): the
-    continuation in L from one equilibrium is unique as long as no fold is
-    passed, so the gravity-dominated branch is the same curve traced back.
-    The equilibria are the fine mesh's (to Newton's tolerance), the folds
-    bracketed on it; measured at hmax 0.03 from 0.1 (rows L/a 0.5-3, steps
-    0.05): 0.71 of the wall time of the fine mesh alone on the bistable
-    rectangle at a/R 2.5, 0.42 on the monotone b/a 0.4
-    (``benchmarks/results/speed/fold_map_rows_hmax0.03.txt``).
+    kind : str
+        ``"standout"`` (``L1*``: the curvature-dominated branch ends there,
+        longer sheets have none) or ``"popup"`` (``L0*``: the
+        gravity-dominated one ends there, shorter sheets have none).
+    length : float
+        ``L*/a``, located to :data:`FOLD_TOL`.
+    deflection : float
+        d/a at the fold.
+    crossing : tuple or None
+        ``(n-, n+)``: the negative eigenvalue counts of the tangent on both
+        sides of the fold along its null vector.
+    negative_eigenvalues : int or None
+        Besides the critical one: 0 for a fold at the end of a stable branch.
+    hmax : float
+        The mesh it was located on ...
+    mesh_length : float
+        ... made at this length (on the grid
+        :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID`, next to the
+        fold).
+    factorizations : int
+        Work of locating it on that mesh (the crossing's two included).
+    point, problem
+        The located fold (:class:`skfem_sheet.engine.FoldPoint`: state, null
+        vector) and its :class:`~skfem_sheet.sheet_shape.SheetShapeProblem`,
+        kept only with ``fold_lengths(..., keep_states=True)`` (the fold's
+        sensitivities, :func:`skfem_sheet.calibration.fold_length_sensitivities`).
 
     Examples
     --------
-    >>> r = fold_lengths(0.0, 2.5, lengths=(0.8, 1.2), hmax=0.15, step=0.2)
-    >>> r.bistable
-    False
+    >>> f = Fold("standout", 1.3472, 0.105, (0, 1), 0, 0.1, 1.35, 5)
+    >>> f.confirmed, f.branch
+    (True, 'curvature-dominated')
     """
-    lo, hi = (check_range("lengths", float(x), 0.05, 20.0) for x in lengths)
-    if not lo < hi:
-        raise ParameterError(f"lengths must be (short, long) with short < long, got {lengths!r}")
+
+    kind: str
+    length: float
+    deflection: float
+    crossing: object
+    negative_eigenvalues: object
+    hmax: float
+    mesh_length: float
+    factorizations: int = 0
+    point: object = field(default=None, repr=False, compare=False)
+    problem: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def branch(self) -> str:
+        """The branch that ends at this fold."""
+        return _KINDS[self.kind][0]
+
+    @property
+    def confirmed(self):
+        """Exactly one eigenvalue crosses zero at the fold (True), not (False),
+        or unknown (None: the linear solver gives no inertia)."""
+        if self.crossing is None:
+            return None
+        return abs(int(self.crossing[1]) - int(self.crossing[0])) == 1
+
+    def to_json(self) -> dict:
+        return {"kind": self.kind, "length": self.length, "deflection": self.deflection,
+                "crossing": None if self.crossing is None else list(self.crossing),
+                "confirmed": self.confirmed, "negative_eigenvalues": self.negative_eigenvalues,
+                "hmax": self.hmax, "mesh_length": self.mesh_length,
+                "factorizations": self.factorizations}
+
+
+@dataclass(frozen=True)
+class FoldPosition:
+    """Where a length sits against the fold lengths of its planform and curvature.
+
+    Attributes
+    ----------
+    length : float
+        L/a.
+    where : str
+        ``"between"`` (both branches exist: two states), ``"below"`` (shorter
+        than the pop-up length ``L0*``: only the curvature-dominated state),
+        ``"above"`` (longer than the standout length ``L1*``: only the
+        gravity-dominated state), ``"at a fold"`` (within :data:`FOLD_TOL`
+        of one), ``"one branch"`` (a flat clamp: both paths are one problem;
+        or no fold at all: one state at every length) or ``"unknown"``
+        (outside what the continuations covered).
+    states : int or None
+        Number of stable states at this length (2, 1, or None if unknown).
+    text : str
+        The verdict in words.
+    """
+
+    length: float
+    where: str
+    states: object
+    text: str
+
+    def to_json(self) -> dict:
+        return {"length": self.length, "where": self.where, "states": self.states,
+                "text": self.text}
+
+
+def _exists(branch, length, fold, up):
+    """Whether the branch of a continuation (from the short end if ``up``, else
+    the long end) exists at ``length``: True, False, "fold" or None (unknown)."""
+    if branch.start_snapped or not len(branch.points):
+        return None
+    if fold is not None and math.isfinite(fold):
+        if abs(length - fold) <= FOLD_TOL * max(1.0, fold):
+            return "fold"
+        return (length < fold) if up else (length > fold)
+    if branch.reason:  # lost without a fold, short of the range: known where it was followed
+        covered = branch.lengths.max() if up else branch.lengths.min()
+        return True if (length <= covered + 1e-12 if up else length >= covered - 1e-12) else None
+    return True
+
+
+def fold_position(folds: FoldLengths, length: float) -> FoldPosition:
+    """Where ``length`` sits against the fold lengths ``folds``.
+
+    Parameters
+    ----------
+    folds : FoldLengths
+        From :func:`fold_lengths`.
+    length : float
+        L/a of a sheet of that planform, curvature and material.
+
+    Examples
+    --------
+    >>> def branch(Ls, fold):
+    ...     return Branch(tuple(BranchPoint(L, 0.1, True, 0, 3) for L in Ls), fold,
+    ...                   reason="" if fold is None else "fold")
+    >>> sheet = Sheet(length=1.3, curvature=2.5)
+    >>> f = FoldLengths(sheet, 0.1, (0.6, 2.4),
+    ...                 Fold("standout", 1.347, 0.1, (0, 1), 0, 0.1, 1.35),
+    ...                 Fold("popup", 1.202, 0.3, (1, 0), 0, 0.1, 1.2),
+    ...                 branch([0.6, 1.3], 1.347), branch([2.4, 1.21], 1.202), 0.1)
+    >>> fold_position(f, 1.3).where, fold_position(f, 1.0).where, fold_position(f, 2).states
+    ('between', 'below', 1)
+    >>> print(fold_position(f, 1.0).text)
+    L/a = 1 is below the pop-up length L0* = 1.20200: one state, curvature-dominated (aloft)
+    """
+    L = float(length)
+    lo, hi = folds.length_range
+    L0, L1 = folds.popup_length, folds.standout_length
+
+    def fmt(name, x, end):
+        return (f"{name} = {x:.5f}" if math.isfinite(x) else
+                f"{name} not in [{lo:g}, {hi:g}] (the branch held to L/a = {end:g})")
+
+    if folds.sheet.curvature == 0.0:
+        return FoldPosition(L, "one branch", 1, f"a flat clamp (a/R = 0): one state at every "
+                                                 f"length, L/a = {L:g} too")
+    if not lo <= L <= hi:
+        return FoldPosition(L, "unknown", None, f"L/a = {L:g} lies outside the lengths searched, "
+                                                f"[{lo:g}, {hi:g}]")
+    if folds.decreasing is folds.increasing and not math.isfinite(L1):
+        return FoldPosition(L, "one branch", 1,
+                            f"no fold in [{lo:g}, {hi:g}]: one state at every length (the "
+                            f"curvature-first branch from L/a = {lo:g} is the gravity-first "
+                            f"one from {hi:g}), L/a = {L:g} too")
+    cd = _exists(folds.increasing, L, L1, up=True)
+    gd = _exists(folds.decreasing, L, L0, up=False)
+    if "fold" in (cd, gd):
+        which = "standout length L1*" if cd == "fold" else "pop-up length L0*"
+        x = L1 if cd == "fold" else L0
+        return FoldPosition(L, "at a fold", None,
+                            f"L/a = {L:g} is within {FOLD_TOL:g} of the {which} = {x:.5f}: at "
+                            f"the fold, where one of the two states ends")
+    if cd is True and gd is True:
+        return FoldPosition(L, "between", 2,
+                            f"L/a = {L:g} lies between the pop-up length "
+                            f"{fmt('L0*', L0, lo)} and the standout length "
+                            f"{fmt('L1*', L1, hi)}: two states (bistable)")
+    if cd is True and gd is False:
+        return FoldPosition(L, "below", 1,
+                            f"L/a = {L:g} is below the pop-up length L0* = {L0:.5f}: one "
+                            f"state, curvature-dominated (aloft)")
+    if cd is False and gd is True:
+        return FoldPosition(L, "above", 1,
+                            f"L/a = {L:g} is above the standout length L1* = {L1:.5f}: one "
+                            f"state, gravity-dominated (drooped)")
+    why = []
+    for name, b, e in (("curvature-dominated", folds.increasing, cd),
+                       ("gravity-dominated", folds.decreasing, gd)):
+        if e is None:
+            why.append(f"the {name} branch was not followed to L/a = {L:g}"
+                       + (f" ({b.reason})" if b.reason else "")
+                       + (" (its load path snapped where it started)" if b.start_snapped else ""))
+    return FoldPosition(L, "unknown", None, f"where L/a = {L:g} sits is unknown: "
+                        + "; ".join(why or ["neither branch was found there"]))
+
+
+@dataclass(frozen=True)
+class FoldLengths:
+    """The fold lengths of a sheet's planform at its curvature and material.
+
+    :func:`fold_lengths` returns it: ``L1*`` (standout), where the
+    curvature-dominated branch ends, and ``L0*`` (pop-up), where the
+    gravity-dominated one ends, each located on the mesh ``hmax``
+    (:class:`Fold`), and where the sheet's own length sits against them.
+
+    Attributes
+    ----------
+    sheet : Sheet
+        The sheet asked about (its planform, curvature and material make the
+        family of lengths; its length is placed against the folds).
+    hmax : float
+        The mesh the folds were located on.
+    length_range : (float, float)
+        The lengths searched.
+    standout, popup : Fold or None
+        The located folds (None where the branch held over the range, or
+        was lost without a fold: ``message`` says which).
+    increasing, decreasing : Branch
+        The two continuations (curvature-first from the short end,
+        gravity-first from the long end; one and the same where the
+        curvature-dominated branch reaches the long end without a fold and
+        the gravity-first state there is its end, and at a/R = 0), on
+        ``branch_hmax``.
+    trace_hmax : float
+        The mesh the branches were traced on and their folds first located
+        (:func:`trace_mesh`).
+    branch_hmax : float
+        The mesh of ``increasing`` and ``decreasing`` (``hmax`` with
+        ``branches=True``, else ``trace_hmax``).
+    message : str
+        Why a fold is missing, or "".
+    factorizations : int
+        Factorisations on the mesh ``hmax`` (the folds located there; with
+        ``branches=True`` also the branches).
+    trace_factorizations : int
+        Factorisations of the traces on ``trace_hmax`` (when it is another mesh).
+    wall_time_s : float
+
+    Examples
+    --------
+    >>> f = fold_lengths(Sheet(length=1.3, curvature=2.5), hmax=0.2,
+    ...                  lengths=(1.0, 1.7))  # doctest: +SKIP
+    >>> f.popup_length, f.standout_length, f.bistable, f.in_window  # doctest: +SKIP
+    """
+
+    sheet: Sheet
+    hmax: float
+    length_range: tuple
+    standout: Fold | None
+    popup: Fold | None
+    increasing: Branch
+    decreasing: Branch
+    trace_hmax: float
+    branch_hmax: float = math.nan
+    message: str = ""
+    factorizations: int = 0
+    trace_factorizations: int = 0
+    wall_time_s: float = 0.0
+
+    # -- the answer -----------------------------------------------------------
+    @property
+    def standout_length(self) -> float:
+        """``L1*/a``, NaN where none was found."""
+        return self.standout.length if self.standout is not None else math.nan
+
+    @property
+    def popup_length(self) -> float:
+        """``L0*/a``, NaN where none was found."""
+        return self.popup.length if self.popup is not None else math.nan
+
+    @property
+    def standout_deflection(self) -> float:
+        return self.standout.deflection if self.standout is not None else math.nan
+
+    @property
+    def popup_deflection(self) -> float:
+        return self.popup.deflection if self.popup is not None else math.nan
+
+    @property
+    def bistable(self) -> bool:
+        """Both folds found with ``L0* < L1*``: the lengths in between have two
+        stable states."""
+        return bool(self.popup_length < self.standout_length)
+
+    @property
+    def window(self) -> tuple:
+        """``(L0*, L1*)`` of a bistable family, else ``(nan, nan)``."""
+        return (self.popup_length, self.standout_length) if self.bistable else (math.nan,) * 2
+
+    @property
+    def width(self) -> float:
+        """``L1* - L0*`` (NaN unless both were found)."""
+        return self.standout_length - self.popup_length
+
+    @property
+    def position(self) -> FoldPosition:
+        """Where ``sheet.length`` sits against the folds (:func:`fold_position`)."""
+        return fold_position(self, self.sheet.length)
+
+    @property
+    def in_window(self):
+        """Whether ``sheet.length`` lies in the bistable window (two stable
+        states), or None where that is unknown."""
+        pos = self.position
+        return None if pos.states is None else pos.states == 2
+
+    # -- the old names ----------------------------------------------------------
+    @property
+    def tip_width(self) -> float:
+        return self.sheet.tip_width
+
+    @property
+    def curvature(self) -> float:
+        return self.sheet.curvature
+
+    @property
+    def coarse_hmax(self):
+        """The trace mesh where it is not ``hmax`` (else None)."""
+        return None if self.trace_hmax == self.hmax else self.trace_hmax
+
+    @property
+    def coarse_newton_iterations(self) -> int:
+        return self.trace_factorizations
+
+    @property
+    def tol(self) -> float:
+        """The folds' location tolerance in L/a (:data:`FOLD_TOL`)."""
+        return FOLD_TOL
+
+    # -- SI ---------------------------------------------------------------------
+    def in_si(self) -> dict | None:
+        """The fold lengths and deflections in metres (None for a sheet
+        without SI scales): ``popup_length_m``, ``standout_length_m``,
+        ``popup_deflection_m``, ``standout_deflection_m``, ``length_m``
+        (the sheet's), ``length_range_m``."""
+        si = self.sheet.si
+        if si is None:
+            return None
+        return {"popup_length_m": si.metres(self.popup_length),
+                "standout_length_m": si.metres(self.standout_length),
+                "popup_deflection_m": si.metres(self.popup_deflection),
+                "standout_deflection_m": si.metres(self.standout_deflection),
+                "length_m": si.metres(self.sheet.length),
+                "length_range_m": [si.metres(x) for x in self.length_range],
+                "base_width_m": si.base_width}
+
+    # -- in words -----------------------------------------------------------------
+    def fold_text(self, kind: str) -> str:
+        """One fold and what it is, in words (the command line's table).
+
+        Examples
+        --------
+        >>> f = FoldLengths(Sheet(length=1.3, curvature=2.5), 0.1, (0.6, 2.4), None, None,
+        ...                 Branch(()), Branch(()), 0.1)
+        >>> f.fold_text("standout")
+        'none in range (the curvature-dominated branch held to L/a = 2.4)'
+        """
+        fold = self.standout if kind == "standout" else self.popup
+        branch = self.increasing if kind == "standout" else self.decreasing
+        name = _KINDS[kind][0]
+        lo, hi = self.length_range
+        si = self.sheet.si
+        if fold is not None:
+            mm = "" if si is None else f" (L* = {1e3 * si.metres(fold.length):.5g} mm)"
+            check = {True: "", False: ", the eigenvalue crossing NOT confirmed",
+                     None: ", crossing unknown"}[fold.confirmed]
+            return (f"{fold.length:.5f}{mm}, d/a {fold.deflection:.4f} there  (the {name} "
+                    f"branch ends there{check})")
+        if branch.start_snapped:
+            end = lo if kind == "standout" else hi
+            return (f"none: the {name} branch does not exist at L/a = {end:g}, where it was "
+                    f"started (widen the lengths)")
+        if branch.reason:
+            return f"not found: the {name} branch was lost without a fold ({branch.reason})"
+        end = hi if kind == "standout" else lo
+        return f"none in range (the {name} branch held to L/a = {end:g})"
+
+    def lines(self) -> list:
+        """The answer in words, a line each (what ``bistability`` prints)."""
+        lo, hi = self.length_range
+        sheet = self.sheet
+        family = (f"this planform (b/a = {sheet.tip_width:g}) at a/R = {sheet.curvature:g}"
+                  if sheet.planform is None else
+                  f"this planform ({sheet.planform!r}) at a/R = {sheet.curvature:g}")
+        out = [f"fold lengths of {sheet.describe().split(', ', 1)[1]}; hmax {self.hmax:g}"
+               + (f" (branches traced on {self.trace_hmax:g})"
+                  if self.trace_hmax != self.hmax else "")
+               + f", L/a searched in [{lo:g}, {hi:g}]  ({self.wall_time_s:.0f} s):",
+               f"  standout length L1*/a = {self.fold_text('standout')}",
+               f"  pop-up length   L0*/a = {self.fold_text('popup')}"]
+        if self.bistable:
+            out.append(f"  {family} is bistable for {self.popup_length:.5f} < L/a < "
+                       f"{self.standout_length:.5f}: two stable states at each length in "
+                       f"between")
+        elif math.isfinite(self.width):
+            out.append(f"  {family}: L1* <= L0*, no length with two stable states")
+        else:
+            out.append(f"  {family} is not bistable for any L/a in [{lo:g}, {hi:g}] searched")
+        out.append(f"  this sheet (L/a = {sheet.length:g}"
+                   + ("" if sheet.si is None else
+                      f", L = {1e3 * sheet.si.metres(sheet.length):.4g} mm")
+                   + f"): {self.position.text}")
+        return out
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines())
+
+    def __repr__(self) -> str:
+        def f(x):
+            return "nan" if not math.isfinite(x) else f"{x:.5f}"
+        return (f"FoldLengths({self.sheet!r}, hmax={self.hmax:g}: L0* = {f(self.popup_length)}, "
+                f"L1* = {f(self.standout_length)}, bistable={self.bistable}, "
+                f"in_window={self.in_window})")
+
+    def _repr_pretty_(self, p, cycle) -> None:
+        p.text(repr(self) if cycle else str(self))
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return "<pre>" + escape(str(self)) + "</pre>"
+
+    def summary(self) -> dict:
+        """JSON-ready summary (the command line's ``--json``): ``popup_length``,
+        ``standout_length`` (None where none), ``bistable``, the located
+        folds, both branches, where the sheet's length sits, and the SI
+        values (``si``) of a sheet made from SI quantities."""
+        def num(x):
+            return x if math.isfinite(x) else None
+
+        one = self.decreasing is self.increasing
+        return {"popup_length": num(self.popup_length),
+                "standout_length": num(self.standout_length),
+                "bistable": self.bistable, "bistable_width": num(self.width),
+                "popup": None if self.popup is None else self.popup.to_json(),
+                "standout": None if self.standout is None else self.standout.to_json(),
+                "tol": FOLD_TOL, "sheet": self.sheet.to_dict(),
+                "tip_width": self.sheet.tip_width, "curvature": self.sheet.curvature,
+                "thickness": self.sheet.thickness, "modulus": self.sheet.modulus,
+                "hmax": self.hmax, "trace_hmax": self.trace_hmax,
+                "branch_hmax": self.branch_hmax, "length_range": list(self.length_range),
+                "position": self.position.to_json(), "in_window": self.in_window,
+                "curvature_dominated": self.increasing.summary(),
+                "gravity_dominated": self.decreasing.summary(), "one_branch": one,
+                "message": self.message, "factorizations": self.factorizations,
+                "trace_factorizations": self.trace_factorizations,
+                "wall_time_s": self.wall_time_s, "si": self.in_si(), "version": __version__}
+
+
+#: The old name of :class:`FoldLengths` (before the folds were located and
+#: the function took a Sheet); kept one release.
+Bistability = FoldLengths
+
+
+def _mesh_length(L: float) -> float:
+    """The length a fold's mesh is made at: ``L`` on the grid
+    :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID` (the fold
+    curves' rule, so that a fold is located on the same mesh whichever code
+    finds it, and does not follow round-off in where it was first found)."""
+    return round(max(MESH_LENGTH_GRID, round(L / MESH_LENGTH_GRID) * MESH_LENGTH_GRID), 10)
+
+
+def locate_on_mesh(sheet: Sheet, point, problem, kind: str, hmax: float, *, layers=None,
+                   solver: str = "auto", keep_state: bool = False, mesh_length=None):
+    """A fold located on the mesh ``hmax`` made next to its length.
+
+    The fold ``point`` (a :class:`skfem_sheet.engine.FoldPoint` in L on
+    ``problem``, e.g. a branch's end on a coarser or stretched mesh) is
+    carried onto a mesh of size ``hmax`` made at its length rounded to
+    :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID` (state and null
+    vector interpolated) and located there by following its branch
+    (:func:`~skfem_sheet.engine.fold_on_branch`: every iterate an
+    equilibrium on a section of the null vector, Newton on ``dL/dc = 0``,
+    the load to :data:`FOLD_TOL`), with the negative eigenvalue counts on
+    both sides checked (two factorisations); where that does not converge,
+    by Newton on the minimally augmented system from the carried state, or
+    from it settled on its section first
+    (:func:`~skfem_sheet.foldcurve.refine.settled_fold`).  A fold that comes
+    out more than a grid step from its mesh's length is located once more,
+    on the mesh made next to where it came out (and that one is kept).
+    ``mesh_length``: make the mesh at this length instead, and keep it (to
+    compare with a fold located on that mesh by other code, e.g. a fold
+    curve's).
+
+    Returns
+    -------
+    (Fold or None, factorisations, reason)
+        ``reason`` says why there is none ("" if there is).
+    """
+    side = _KINDS[kind][1]
+    total = 0
+    for attempt in range(2):
+        L_m = _mesh_length(point.value) if mesh_length is None else float(mesh_length)
+        p = np.array(point.p, dtype=float)
+        if problem.hmax == hmax and abs(problem.mesh_parameters[0] - L_m) < 1e-12:
+            Q = problem  # already the mesh made there
+            u, v = np.array(point.u, dtype=float), np.array(point.v, dtype=float)
+        else:
+            Q = _branch_problem(sheet.replace(length=L_m), "L", hmax, layers, solver, True)
+            u = problem.transferred(Q, point.u, p)
+            v = problem.transferred(Q, point.v, p, state=False)
+        counter = Counting(Q)
+        fold, res = fold_on_branch(counter, u, p, "L", v, tol=TOLERANCES, ptol=FOLD_TOL,
+                                   check_inertia=True, reach=0.25)
+        if fold is None or int(fold.side) != side:
+            why = res.reason if fold is None else "the other kind of fold"
+            fold, res, _, _ = settled_fold(counter, None, "L", u, p, v, TOLERANCES)
+            if fold is not None and int(fold.side) == side:
+                fold = replace(fold, crossing=inertia_crossing(counter, fold.u, fold.p,
+                                                               fold.v, 1e-4))
+            elif fold is not None:
+                fold, why = None, f"{why}; the fold system: the other kind of fold"
+            else:
+                why = f"{why}; the fold system: {res.reason}"
+        total += counter.stats().factorizations
+        if fold is None:
+            return None, total, why
+        # on the mesh made next to it (within a grid step: meshes made a grid
+        # step apart are other unstructured meshes, whose folds differ by their
+        # discretisation error), or on the second mesh, made next to where it
+        # came out on the first
+        if (attempt == 1 or mesh_length is not None
+                or abs(fold.value - L_m) <= MESH_LENGTH_GRID + 1e-9):
+            d = Q.deflection(fold.u, fold.p)
+            if not keep_state:
+                Q.release()
+            return (Fold(kind, fold.value, d, fold.crossing, fold.negative_eigenvalues, hmax,
+                         L_m, total, fold if keep_state else None, Q if keep_state else None),
+                    total, "")
+        point, problem = fold, Q
+
+
+def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None,
+                 branches: bool = False, coarse_hmax=None, step: float = 0.1, layers=None,
+                 solver: str = "auto", progress: bool = False, on_point=(None, None),
+                 keep_states: bool = False, min_step=None, tol=None,
+                 **legacy_keywords) -> FoldLengths:
+    """The fold lengths ``L0*`` and ``L1*`` of a sheet's planform at its
+    curvature and material, located, and where the sheet's length sits.
+
+    1. **The branches, traced.**  On the mesh :func:`trace_mesh` gives
+       (:data:`TRACE_HMAX` where ``hmax`` is finer; else ``hmax`` itself):
+       the curvature-dominated branch followed from ``lengths[0]``
+       (curvature-first) with increasing L, the gravity-dominated one from
+       ``lengths[1]`` (gravity-first) with decreasing L, by natural
+       continuation (:func:`follow_length`), each to its end, located with
+       the minimally augmented fold system.  Where the curvature-dominated
+       branch reaches ``lengths[1]`` without a fold and the gravity-first
+       state there is its end (:func:`_same_state`), the branch is traced
+       once (the continuation in L from one equilibrium is unique as long
+       as no fold is passed).
+    2. **The folds, located on the mesh ``hmax``.**  Each branch's end is
+       carried onto a mesh of size ``hmax`` made at its length and located
+       there along its branch to :data:`FOLD_TOL`, with the eigenvalue that
+       crosses zero confirmed (:func:`locate_on_mesh`: a few factorisations
+       on the fine mesh per fold, no load path there).
+    3. **The branches on ``hmax``** (``branches=True``, or ``on_point``):
+       each followed on the mesh ``hmax`` from its start (reached from the
+       trace mesh, :class:`~skfem_sheet.starts.CoarseStart`, each step's
+       prediction corrected by the traced branch's second-order part) up to
+       its located fold (the figures' curves d(L)).
+
+    Parameters
+    ----------
+    sheet : Sheet
+        The planform, clamp curvature, thickness and modulus of the family
+        of lengths; its own length is placed against the folds
+        (:attr:`FoldLengths.position`).  Any planform (trapezoids and
+        :class:`~skfem_sheet.params.Planform` alike; the mesh is stretched
+        in L, the planform's profile with it).
+    hmax : float
+        The mesh the folds are located on (default
+        :data:`~skfem_sheet.params.DEFAULT_HMAX`, the paper's;
+        :data:`~skfem_sheet.params.QUICK_HMAX` for a quick look).
+    lengths : (float, float), optional
+        The range of L/a searched (default :func:`fold_range`: 0.6 to 2.4,
+        widened to hold the sheet's length).
+    branches : bool
+        Also follow both branches on the mesh ``hmax`` (step 3; else the
+        returned branches are the traced ones).
+    coarse_hmax : float, optional
+        The trace mesh (:func:`trace_mesh`; 0: none, everything on ``hmax``).
+    step : float
+        Largest length step of the continuations.
+    layers, solver
+        Of the meshes (:func:`~skfem_sheet.mesh.sheet_mesh`) and the linear
+        solver (:func:`~skfem_sheet.linalg.make_linear_solver`).
+    progress : bool
+        Progress bars on stderr.
+    on_point : (callable or None, callable or None)
+        The ``on_point`` of the two continuations on the mesh ``hmax``
+        (:func:`follow_length`; implies ``branches``).
+    keep_states : bool
+        Keep each fold's state, null vector and problem (:attr:`Fold.point`,
+        :attr:`Fold.problem`: for its sensitivities).
+    min_step, tol
+        The shortest step (:func:`follow_length`; ``tol`` deprecated).
+    legacy, legacy_keywords
+        The old call, ``fold_lengths(tip_width, curvature, thickness=...,
+        modulus=..., ...)``, still works for one release, with a
+        :class:`DeprecationWarning` (:func:`fold_lengths_of`).
+
+    Returns
+    -------
+    FoldLengths
+        ``popup_length``, ``standout_length`` (NaN where none), ``bistable``,
+        ``in_window``, ``position``; a branch that held over the range or
+        was lost without a fold is said so in ``message`` and in
+        :meth:`FoldLengths.fold_text`.
+
+    Examples
+    --------
+    >>> f = fold_lengths(Sheet(length=1.3, curvature=2.5), hmax=0.2, lengths=(1.0, 1.7),
+    ...                  step=0.15)
+    >>> f.bistable, f.in_window, round(f.popup_length, 2), round(f.standout_length, 2)
+    (True, True, 1.24, 1.36)
+    """
+    options = dict(hmax=hmax, lengths=lengths, branches=branches, coarse_hmax=coarse_hmax,
+                   step=step, layers=layers, solver=solver, progress=progress,
+                   on_point=on_point, keep_states=keep_states, min_step=min_step, tol=tol)
+    if not isinstance(sheet, Sheet):
+        if isinstance(sheet, numbers.Real) and not isinstance(sheet, bool):
+            # the old call fold_lengths(tip_width, curvature, ...): one release more
+            return fold_lengths_of(sheet, *legacy, **legacy_keywords, **options)
+        raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
+    if legacy or legacy_keywords:
+        names = ", ".join(sorted(legacy_keywords)) or f"{len(legacy)} positional"
+        raise ParameterError(f"fold_lengths(sheet, ...) takes the planform, curvature, "
+                             f"thickness and modulus from the Sheet, got also {names} "
+                             f"(give them to the Sheet)")
     t0 = time.perf_counter()
-    base = Sheet(length=lo, tip_width=tip_width, curvature=curvature, thickness=thickness,
-                 modulus=modulus)
-    _check_common(base, hmax, step, tol)
-    if coarse_hmax is not None:
-        check_range("coarse_hmax", coarse_hmax, hmax, None, lo_open=True)
-    common = dict(layers=layers, solver=solver, symmetric=True, step=step, tol=tol, jump=0.1)
-    flat = base.curvature == 0.0  # a flat clamp: both load paths are one problem, one branch
-    coarse = [None, None]
-    guides = [None, None]
-    start = None
-    if coarse_hmax is not None:
-        # the branches on the coarse mesh first: their points guide the fine
-        # ones, and the fine starts are reached from the coarse mesh too
-        start = CoarseStart(hmax=coarse_hmax)
-        for k, (sheet, stop, path) in enumerate(((base, hi, "curvature-first"),
-                                                 (base.replace(length=hi), lo, "gravity-first"))):
-            if k == 1 and flat:
-                break
-            guides[k] = []
-            coarse[k] = _follow("L", sheet, stop, path=path, hmax=coarse_hmax,
-                                **{**common, "layers": None}, progress=None, record=guides[k])
+    hmax = check_range("hmax", hmax, 0, None, lo_open=True)
+    lo, hi = fold_range(sheet.length, lengths)
+    h_trace = trace_mesh(hmax, coarse_hmax)
+    min_step = _min_step(tol, min_step)
+    _check_common(sheet, hmax, step)
+    on_point = tuple(on_point) if on_point is not None else (None, None)
+    if len(on_point) != 2:
+        raise ParameterError(f"on_point must be a pair (curvature-dominated, "
+                             f"gravity-dominated), got {on_point!r}")
+    fine_branches = bool(branches) or any(f is not None for f in on_point)
+    flat = sheet.curvature == 0.0  # a flat clamp: both load paths are one problem, one branch
+    base = sheet.replace(length=lo)
+    common = dict(layers=layers, solver=solver, symmetric=True, step=step, min_step=min_step,
+                  jump=0.1)
+    guided = fine_branches and h_trace != hmax
+    guides = [[] if guided else None, [] if guided else None]
+    trace_on = (None, None) if (fine_branches and h_trace != hmax) else on_point
     last = []
 
-    def keep_last(problem, w, length, user=on_point[0]):
+    def keep_last(problem, w, length, user=trace_on[0]):
         last[:] = [problem, w]
         if user is not None:
             user(problem, w, length)
 
-    # the gravity-dominated branch is the curvature-dominated one where neither
-    # has a fold on the coarse mesh and the fine one has none either: then the
-    # gravity-first start is tried against the curvature-first end (_same_state)
     bars = _bars(progress, lo, hi)
     try:
-        up = _follow("L", base, hi, path="curvature-first", hmax=hmax, **common,
-                     progress=bars[0], on_point=keep_last, start=start, guide=guides[0])
-        down = up if flat else None
+        up = _follow("L", base, hi, path="curvature-first", hmax=h_trace,
+                     **{**common, "layers": layers if h_trace == hmax else None},
+                     progress=bars[0], on_point=keep_last, record=guides[0])
+        down = up
         if not flat:
-            twin = None
-            no_coarse_fold = coarse_hmax is None or (
-                coarse[0].fold is None and coarse[1].fold is None
-                and not coarse[1].start_snapped)
-            if (no_coarse_fold and up.fold is None and not up.reason and last
-                    and on_point[1] is None):  # whose states were asked for is traced
-                twin = tuple(last)
-            down = _follow("L", base.replace(length=hi), lo, path="gravity-first", hmax=hmax,
-                           **common, progress=bars[1], on_point=on_point[1], start=start,
-                           guide=guides[1], twin=twin)
+            # the gravity-dominated branch is the curvature-dominated one where
+            # the latter reaches the long end without a fold and the
+            # gravity-first start there is its end (whose states were asked
+            # for is traced)
+            twin = (tuple(last) if up.fold is None and not up.reason and last
+                    and trace_on[1] is None else None)
+            down = _follow("L", base.replace(length=hi), lo, path="gravity-first",
+                           hmax=h_trace, **{**common,
+                                            "layers": layers if h_trace == hmax else None},
+                           progress=bars[1], on_point=trace_on[1], record=guides[1],
+                           twin=twin)
             if isinstance(down, _SameBranch):
                 up = replace(up, newton_iterations=up.newton_iterations
                              + down.newton_iterations)
@@ -680,13 +1406,110 @@ def fold_lengths(tip_width: float = 1.0, curvature: float = 2.5, *, lengths=(0.6
         for b in bars:
             if b is not None:
                 b.close()
-    # a branch missing where it starts (its path snapped there) has no fold of its own
-    L1 = None if up.start_snapped else up.fold
-    L0 = None if down.start_snapped else down.fold
-    return Bistability(tip_width, curvature, hmax, (lo, hi), L0, L1,
-                       bool(L0 is not None and L1 is not None and L1 - L0 > 2 * tol), up, down,
-                       tol, time.perf_counter() - t0, coarse_hmax,
-                       sum(c.newton_iterations for c in coarse if c is not None))
+    trace_work = up.newton_iterations + (0 if down is up else down.newton_iterations)
+    # the folds on the results' mesh, made at their lengths
+    located, notes, fine_work = {}, [], 0
+    for kind, b in (("standout", up), ("popup", down)):
+        if b.start_snapped:
+            notes.append(f"the {_KINDS[kind][0]} branch does not exist at L/a = "
+                         f"{lo if kind == 'standout' else hi:g}, where it was started")
+            continue
+        if b.fold_point is None:
+            if b.reason and not (kind == "popup" and down is up):
+                notes.append(f"the {_KINDS[kind][0]} branch was lost without a fold at L/a "
+                             f"{b.lengths[-1] if len(b.points) else float('nan'):.4g}: "
+                             f"{b.reason}")
+            continue
+        if kind == "popup" and down is up:
+            continue
+        fold, n, why = locate_on_mesh(sheet, b.fold_point, b.problem, kind, hmax,
+                                      layers=layers, solver=solver, keep_state=keep_states)
+        fine_work += n
+        if fold is None:
+            notes.append(f"the {kind} fold found at L/a {b.fold:.5f} on hmax {h_trace:g} was "
+                         f"not located on hmax {hmax:g}: {why}")
+        located[kind] = fold
+    up, down = up.without_states(), down.without_states() if down is not up else None
+    down = up if down is None else down
+    if fine_branches and h_trace != hmax:
+        up, down, n = _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides,
+                                     located, up, down, on_point, progress, flat, solver)
+        fine_work += n
+    return FoldLengths(sheet, hmax, (lo, hi), located.get("standout"), located.get("popup"),
+                       up, down, h_trace, hmax if fine_branches else h_trace,
+                       "; ".join(notes), int(fine_work if h_trace != hmax
+                                             else fine_work + trace_work),
+                       int(trace_work if h_trace != hmax else 0), time.perf_counter() - t0)
+
+
+#: A branch followed on the fine mesh up to its located fold stops this far
+#: (L/a) before it (where Newton at fixed length still converges: the state
+#: moves like the square root of the distance to the fold).
+FOLD_GAP = 0.01
+
+
+def _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides, located, up, down,
+                   on_point, progress, flat, solver):
+    """The two branches on the mesh ``hmax`` (:func:`fold_lengths`, step 3):
+    from their starts (reached from the trace mesh) up to their located folds
+    (or the range's end), guided by the traced branches; ``(up, down,
+    factorisations)``."""
+    start = CoarseStart(hmax=h_trace)
+    out, work = [], 0
+    bars = _bars(progress, lo, hi)
+    try:
+        for k, (kind, sheet_at, stop_end, path, traced) in enumerate((
+                ("standout", base, hi, "curvature-first", up),
+                ("popup", base.replace(length=hi), lo, "gravity-first", down))):
+            if k == 1 and (flat or (down is up and on_point[1] is None
+                                    and out[0].fold is None)):
+                out.append(out[0])
+                break
+            fold = located.get(kind)
+            direction = 1.0 if k == 0 else -1.0
+            stop = stop_end if fold is None else fold.length - direction * FOLD_GAP
+            if traced.start_snapped or (stop - sheet_at.length) * direction <= 0:
+                out.append(replace(traced, points=(), newton_iterations=0))
+                continue
+            b = _follow("L", sheet_at, stop, path=path, hmax=hmax, **common,
+                        progress=bars[k], on_point=on_point[k], start=start,
+                        guide=guides[k], locate=fold is None)
+            work += b.newton_iterations
+            if fold is None and b.fold_point is not None:
+                # a fold on this mesh that the trace did not have (near the cusp, where
+                # the window opens between the two meshes): located on its own mesh too
+                fold, n, _ = locate_on_mesh(sheet, b.fold_point, b.problem, kind, hmax,
+                                            layers=common["layers"], solver=solver)
+                work += n
+                located[kind] = fold
+            if fold is not None:
+                b = replace(b, fold=fold.length, fold_deflection=fold.deflection,
+                            reason=b.reason or traced.reason,
+                            bracket=b.bracket or traced.bracket)
+            out.append(b.without_states())
+    finally:
+        for bar in bars:
+            if bar is not None:
+                bar.close()
+    return out[0], out[1], work
+
+
+def fold_lengths_of(tip_width: float = 1.0, curvature: float = 2.5, *, thickness: float = 0.03,
+                    modulus: float = 735.0, lengths=(0.6, 2.4), hmax: float = DEFAULT_HMAX,
+                    **options) -> FoldLengths:
+    """Deprecated: the old ``fold_lengths(tip_width, curvature, ...)``, whose
+    material was loose keyword arguments that defaulted to the paper's (so
+    that a sheet of another material got the paper's fold lengths without a
+    word).  Use :func:`fold_lengths` with a :class:`~skfem_sheet.params.Sheet`."""
+    warnings.warn("fold_lengths(tip_width, curvature, thickness=, modulus=) is deprecated: "
+                  "pass the Sheet, fold_lengths(Sheet(length=..., tip_width=..., "
+                  "curvature=..., thickness=..., modulus=...), hmax=...)",
+                  DeprecationWarning, stacklevel=2)
+    lengths = (0.6, 2.4) if lengths is None else lengths
+    lo, hi = (float(x) for x in lengths)
+    sheet = Sheet(length=lo, tip_width=tip_width, curvature=curvature, thickness=thickness,
+                  modulus=modulus)
+    return fold_lengths(sheet, hmax=hmax, lengths=(lo, hi), **options)
 
 
 class _Bar:
@@ -721,7 +1544,13 @@ class SCurve(_Curve):
     points : tuple of BranchPoint
         In arclength order (the length goes up, back at ``L1*``, up again after ``L0*``).
     folds : tuple of float
-        Lengths of the turning points (where dL/ds changes sign), in order.
+        Lengths of the turning points (where dL/ds changes sign), in order:
+        located with the minimally augmented system where that converges
+        (:func:`skfem_sheet.engine.arclength` with ``locate``), else the
+        vertex of the parabola ``L(s)`` through the three points around the
+        sign change (``located`` says which).
+    located : tuple of bool
+        Per fold: located by the fold system (True) or the parabola (False).
     """
 
     points: tuple
@@ -730,15 +1559,18 @@ class SCurve(_Curve):
     message: str = ""
     newton_iterations: int = 0
     wall_time_s: float = 0.0
+    located: tuple = ()
 
     def summary(self) -> dict:
         return {"lengths": self.lengths.tolist(), "deflection": self.deflections.tolist(),
                 "stable": self.stable, "folds": list(self.folds),
+                "located": list(self.located),
                 "converged": self.converged, "message": self.message,
                 "newton_iterations": self.newton_iterations, "wall_time_s": self.wall_time_s}
 
 
-def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solver: str = "auto",
+def s_curve(sheet: Sheet, stop: float, *, hmax: float = DEFAULT_HMAX, layers=None,
+            solver: str = "auto",
             symmetric: bool = True, ds: float = 0.05, ds_max: float = 0.15, max_points: int = 200,
             progress=None, on_point=None) -> SCurve:
     """Pseudo-arclength continuation in L from the curvature-dominated state
@@ -754,14 +1586,17 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
     (:func:`skfem_sheet.engine.arclength`): each corrector iteration solves
     the bordered system by block elimination with the one factorisation of
     the tangent, which stays usable through the fold where the tangent alone
-    is singular.  Turning points are located where ``t_L`` changes sign, by
-    the vertex of the parabola ``L(s)`` through the three points around it.
+    is singular.  Turning points are found where ``t_L`` changes sign and
+    located there with the minimally augmented system (from the nearer of
+    the two points, :func:`~skfem_sheet.engine.fold.fold_between`); where
+    that does not converge, the vertex of the parabola ``L(s)`` through the
+    three points around the sign change is taken (``SCurve.located``).
 
     One mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop``
     must be within a factor 1.8 of each other.  ``on_point(problem, w, L)``,
     if given, is called with the state of each point (see :func:`follow_length`).
     """
-    _check_common(sheet, hmax, 0.5, 0.01)
+    _check_common(sheet, hmax, 0.5)
     stop = check_range("stop", stop, sheet.length, 20.0, lo_open=True)
     if stop / sheet.length > REMESH_STRETCH**2:
         raise ParameterError(f"stop must be at most {REMESH_STRETCH**2:.2f} times the start length "
@@ -789,13 +1624,22 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = 0.06, layers=None, solve
 
     u0 = out.w[P.free]
     b = arclength(counter, u0, p0, 0, (0.0, stop), ds=ds, ds_min=min(1e-3, ds),
-                  ds_max=max(ds_max, ds), tol=_ARCLENGTH_TOLERANCES, max_points=max_points, locate=False,
+                  ds_max=max(ds_max, ds), tol=_ARCLENGTH_TOLERANCES, max_points=max_points,
+                  locate=True,
                   keep_states=False, progress=progress, on_step=on_step,
                   start=(u0, P.held(u0, p0)))
     message = "" if b.completed else b.reason
-    folds = _turning_points(np.array(s_hist), np.array(tL_hist), points)
+    turns = _turning_points(np.array(s_hist), np.array(tL_hist), points)
+    # each turning point by the fold system where it located one next to it
+    exact = [float(f.value) for f in b.folds]
+    folds, located = [], []
+    for x in turns:
+        near = [f for f in exact if abs(f - x) <= 0.05]
+        folds.append(near[0] if near else x)
+        located.append(bool(near))
     return SCurve(tuple(points), tuple(folds), b.completed, message,
-                  stats.newton_iterations + b.stats.factorizations, time.perf_counter() - t0)
+                  stats.newton_iterations + b.stats.factorizations, time.perf_counter() - t0,
+                  tuple(located))
 
 
 #: The S-curve's corrector: the sheet's tolerances, a full Newton step at every

@@ -119,12 +119,17 @@ class Result:
     symmetric : bool
         Solved as the mirror-symmetric half (see :func:`~skfem_sheet.solve.solve`).
     branch : str
-        ``"curvature-dominated"`` or ``"gravity-dominated"``: the branch the
-        load path selects (curvature-first: curvature-dominated), switched at
-        each located fold the sheet snapped from (``snaps``).  It follows from
-        the located folds, so it is the history of the load path, not a
-        property of the end state: outside the bistable range both paths reach
-        the same state, whatever its name.
+        ``"curvature-dominated"`` or ``"gravity-dominated"``: what the end
+        state is, read from the state itself -- from where it lies on its
+        S-curve d(L) (:mod:`skfem_sheet.analyses.mode`: gravity-dominated
+        where the sag grows with the length ever more slowly, ``dd/dL > 0 >
+        d^2d/dL^2``, curvature-dominated where it grows ever faster or the
+        tip rises; a flat clamp is gravity-dominated, a sheet without
+        gravity curvature-dominated).  One state has one name whichever path
+        reached it, and the two stable states of a bistable sheet have the
+        two names.  The load path's history is ``snaps``.  (A result that
+        did not reach full load is named by its history: its path's own
+        branch, switched at each snap.)
     stable : bool or None
         Whether the equilibrium is stable: the constrained Hessian (the tangent
         on the incompressible subspace) is positive definite, read off the
@@ -136,6 +141,10 @@ class Result:
         Number of negative eigenvalues of the constrained Hessian.
     refine : int
         Nested refinements of the mesh made at ``hmax``.
+    mode : Mode or None
+        What ``branch`` was read from (:class:`~skfem_sheet.analyses.mode.Mode`:
+        the S-curve's slope and bend at the state, in words); None if the
+        solve did not converge.
     polish_iterations : int
         Simplified-Newton corrections of the final polish
         (``NewtonOptions.final_utol``; their back-substitutions are counted in
@@ -184,6 +193,7 @@ class Result:
     refine: int = 0
     back_substitutions: int = 0
     polish_iterations: int = 0
+    mode: object = field(default=None, compare=False)
     target_gravity: float = 1.0
     start_record: StartRecord = field(default_factory=StartRecord)
     sensitivities: object = field(default=None, compare=False)

@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .analyses.mode import mode_of
 from .analyses.observables import tip_deflection
 from .analyses.sensitivity import check_parameters, state_sensitivities
 from .build import BuildChain
@@ -59,8 +60,9 @@ def build_problem(sheet: Sheet, hmax: float, layers=None, quadrature_order: int 
 
 
 def _branch(path, snaps):
-    """The branch a load path ends on: its own, switched at each located fold
-    the sheet snapped from."""
+    """The branch a load path's history points to (its own, switched at each
+    located fold the sheet snapped from): the name of a state that did not
+    reach full load, which has no S-curve of its own to be read from."""
     names = ("curvature-dominated", "gravity-dominated")
     own = 0 if path == "curvature-first" else 1
     return names[(own + len(snaps)) % 2]
@@ -256,6 +258,10 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
             w_last = w  # the end state, as the Result holds it
         series.on_step(pr, w_last, k, g)
     stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
+    # the state's name, read from the state (its S-curve's bend there,
+    # analyses.mode), with the solve's factorisation; the path's history stays
+    # in the snaps
+    mode = mode_of(problem, w, out.g, linear) if out.converged else None
     result = Result(
         sheet=sheet, path=path, hmax=hmax,
         deflection=tip_deflection(problem, w), converged=out.converged,
@@ -269,7 +275,8 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
         solver=linear.name, layers=problem.sheet_mesh.layers,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
-        branch=_branch(path, out.snaps), stable=stable, negative_eigenvalues=n_neg,
+        branch=mode.name if mode is not None else _branch(path, out.snaps), stable=stable,
+        negative_eigenvalues=n_neg, mode=mode,
         refine=int(refine), problem=problem, w=w,
         back_substitutions=_back_substitutions(linear), polish_iterations=n_polish,
         target_gravity=gravity, start_record=out.record)

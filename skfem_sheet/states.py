@@ -5,8 +5,10 @@ then gravity-first, on the same mesh), says whether the two end states differ
 (two states: the sheet is bistable) or are one and the same, with both
 deflections and their stability; asked for (``folds=True``), it also finds the
 fold lengths ``L0*`` (pop-up) and ``L1*`` (standout) of the sheet's planform at
-its curvature (:func:`~skfem_sheet.bistability.fold_lengths`) and says where
-the sheet's length sits against them.  The command line's twin is
+its curvature and material (:func:`~skfem_sheet.bistability.fold_lengths`,
+located) and says where the sheet's length sits against them.  Each end state
+carries its name (``Result.branch``: curvature- or gravity-dominated, a
+property of the state), so a bistable pair carries two.  The command line's twin is
 ``skfem-sheet solve --path both [--folds]``.
 
 Whether the end states differ is decided on the states themselves, not on the
@@ -21,19 +23,24 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from .bistability import Bistability, fold_lengths
+from .bistability import FoldLengths, FoldPosition, fold_lengths, fold_position, fold_range
 from .io import check_writable, write_json
-from .params import ParameterError, Sheet, check_range
+from .params import DEFAULT_HMAX, ParameterError, Sheet, check_range
 from .result import Result
 from .solve import solve
 from .version import __version__
 
 __all__ = ["States", "FoldPosition", "solve_both", "fold_position", "sheet_line",
            "with_path", "SAME_TOL"]
+
+# FoldPosition and fold_position live with the fold lengths (bistability); they
+# are imported here for the code that took them from this module.
+_ = (FoldLengths, FoldPosition, fold_position)
 
 #: Two end states closer than this (largest nodal distance, in base widths) are one state.
 SAME_TOL = 1e-5
@@ -59,120 +66,6 @@ def sheet_line(sheet: Sheet, gravity: float = 1.0) -> str:
 
 
 @dataclass(frozen=True)
-class FoldPosition:
-    """Where a length sits against the fold lengths of its planform and curvature.
-
-    Attributes
-    ----------
-    length : float
-        L/a.
-    where : str
-        ``"between"`` (both branches exist: two states), ``"below"`` (shorter
-        than the pop-up length ``L0*``: only the curvature-dominated state),
-        ``"above"`` (longer than the standout length ``L1*``: only the
-        gravity-dominated state), ``"at a fold"`` (inside a fold's bracket,
-        ``+- tol``), ``"one branch"`` (a flat clamp: both paths are one
-        problem) or ``"unknown"`` (outside what the continuations covered).
-    states : int or None
-        Number of stable states at this length (2, 1, or None if unknown).
-    text : str
-        The verdict in words.
-    """
-
-    length: float
-    where: str
-    states: object
-    text: str
-
-    def to_json(self) -> dict:
-        return {"length": self.length, "where": self.where, "states": self.states,
-                "text": self.text}
-
-
-def _exists(branch, length, fold, tol, up):
-    """Whether the branch of a continuation (from the short end if ``up``, else
-    the long end) exists at ``length``: True, False, "fold" or None (unknown)."""
-    if branch.start_snapped or not len(branch.points):
-        return None
-    if fold is not None:
-        if abs(length - fold) <= tol:
-            return "fold"
-        return (length < fold) if up else (length > fold)
-    covered = branch.lengths.max() if up else branch.lengths.min()
-    return True if (length <= covered + 1e-12 if up else length >= covered - 1e-12) else None
-
-
-def fold_position(folds: Bistability, length: float) -> FoldPosition:
-    """Where ``length`` sits against the fold lengths ``folds``.
-
-    Parameters
-    ----------
-    folds : Bistability
-        From :func:`~skfem_sheet.bistability.fold_lengths`.
-    length : float
-        L/a of a sheet of that planform and curvature.
-
-    Examples
-    --------
-    >>> from skfem_sheet.bistability import Branch, BranchPoint
-    >>> def branch(Ls, fold):
-    ...     pts = tuple(BranchPoint(L, 0.1, True, 0, 3) for L in Ls)
-    ...     return Branch(pts, fold, (fold - 0.005, fold + 0.005))
-    >>> f = Bistability(1.0, 2.5, 0.1, (0.6, 2.4), 1.202, 1.347, True,
-    ...                 branch([0.6, 1.3], 1.347), branch([2.4, 1.21], 1.202))
-    >>> fold_position(f, 1.3).where, fold_position(f, 1.0).where, fold_position(f, 2).states
-    ('between', 'below', 1)
-    >>> print(fold_position(f, 1.0).text)
-    L/a = 1 is below the pop-up length L0* = 1.202: one state, curvature-dominated (aloft)
-    """
-    L = float(length)
-    lo, hi = folds.length_range
-    L0, L1, tol = folds.popup_length, folds.standout_length, folds.tol
-
-    def fmt(name, x, end):
-        return (f"{name} = {x:.3f}" if x is not None else
-                f"{name} not in [{lo:g}, {hi:g}] (the branch held to L/a = {end:g})")
-
-    if folds.curvature == 0.0:
-        return FoldPosition(L, "one branch", 1, f"a flat clamp (a/R = 0): one state at every "
-                                                 f"length, L/a = {L:g} too")
-    if not lo <= L <= hi:
-        return FoldPosition(L, "unknown", None, f"L/a = {L:g} lies outside the lengths searched, "
-                                                f"[{lo:g}, {hi:g}]")
-    cd = _exists(folds.increasing, L, L1, tol, up=True)
-    gd = _exists(folds.decreasing, L, L0, tol, up=False)
-    if "fold" in (cd, gd):
-        which = "standout length L1*" if cd == "fold" else "pop-up length L0*"
-        x = L1 if cd == "fold" else L0
-        return FoldPosition(L, "at a fold", None,
-                            f"L/a = {L:g} is within +-{tol:g} of the {which} = {x:.3f}: at the "
-                            f"fold, where one of the two states ends (closer than the folds "
-                            f"were located)")
-    if cd is True and gd is True:
-        return FoldPosition(L, "between", 2,
-                            f"L/a = {L:g} lies between the pop-up length "
-                            f"{fmt('L0*', L0, lo)} and the standout length "
-                            f"{fmt('L1*', L1, hi)}: two states (bistable)")
-    if cd is True and gd is False:
-        return FoldPosition(L, "below", 1,
-                            f"L/a = {L:g} is below the pop-up length L0* = {L0:.3f}: one "
-                            f"state, curvature-dominated (aloft)")
-    if cd is False and gd is True:
-        return FoldPosition(L, "above", 1,
-                            f"L/a = {L:g} is above the standout length L1* = {L1:.3f}: one "
-                            f"state, gravity-dominated (drooped)")
-    why = []
-    for name, b, e in (("curvature-dominated", folds.increasing, cd),
-                       ("gravity-dominated", folds.decreasing, gd)):
-        if e is None:
-            why.append(f"the {name} branch was not followed to L/a = {L:g}"
-                       + (f" ({b.reason})" if b.reason else "")
-                       + (" (its load path snapped where it started)" if b.start_snapped else ""))
-    return FoldPosition(L, "unknown", None, f"where L/a = {L:g} sits is unknown: "
-                        + "; ".join(why or ["neither branch was found there"]))
-
-
-@dataclass(frozen=True)
 class States:
     """The sheet along both load paths (:func:`solve_both`).
 
@@ -185,9 +78,9 @@ class States:
         node, in base widths (``nan`` unless both converged).
     same_tol : float
         End states closer than this are one state.
-    folds : Bistability or None
-        The fold lengths of the sheet's planform at its curvature (with
-        ``folds=True``).
+    folds : FoldLengths or None
+        The fold lengths of the sheet's planform at its curvature and
+        material (with ``folds=True``; their mesh: ``folds.hmax``).
     fold_hmax : float or None
         The mesh size they were found on.
 
@@ -253,12 +146,36 @@ class States:
     def position(self):
         """Where the length sits against the fold lengths (:class:`FoldPosition`),
         or None without ``folds``."""
-        return None if self.folds is None else fold_position(self.folds, self.sheet.length)
+        return None if self.folds is None else self.folds.position
+
+    @property
+    def names(self) -> tuple:
+        """``(curvature-first name, gravity-first name)``: what each end state
+        is (:attr:`Result.branch <skfem_sheet.result.Result.branch>`, a
+        property of the state: one name for one state, two for a bistable
+        pair)."""
+        return (self.curvature_first.branch, self.gravity_first.branch)
+
+    def in_si(self) -> dict | None:
+        """The deflections and the separation in metres (None for a sheet
+        without SI scales): ``deflections_m`` (by path), ``separation_m``,
+        and the fold lengths' (``folds``, :meth:`FoldLengths.in_si`)."""
+        si = self.sheet.si
+        if si is None:
+            return None
+        return {"base_width_m": si.base_width,
+                "deflections_m": {"curvature-first": si.metres(self.deflections[0]),
+                                  "gravity-first": si.metres(self.deflections[1])},
+                "separation_m": si.metres(self.separation),
+                "folds": None if self.folds is None else self.folds.in_si()}
 
     def lines(self, base_width=None) -> list:
         """The verdict in words, a line each (what ``solve --path both`` prints);
-        with ``base_width`` (metres), the deflections in millimetres too."""
+        the deflections in millimetres too for a sheet made from SI quantities
+        (or with ``base_width``, metres)."""
         r1, r2 = self.curvature_first, self.gravity_first
+        if base_width is None and self.sheet.si is not None:
+            base_width = self.sheet.si.base_width
         out = [f"sheet: {sheet_line(self.sheet, r1.target_gravity)}; hmax {r1.hmax:g}"
                + ("" if r1.symmetric else ", whole sheet")]
         for r in (r1, r2):
@@ -268,10 +185,9 @@ class States:
                 out.append(f"{head} (NOT converged: {r.message}; d/a at the load reached)")
                 continue
             stable = {True: "stable", False: "unstable", None: "stability unknown"}[r.stable]
-            branch = f"{r.branch}, " if self.distinct else ""
             snaps = "".join(f", snapped in the {s.phase} phase at {s.load:.3g} of it"
                             for s in r.snaps)
-            out.append(f"{head}  {branch}{stable}{snaps}  ({r.wall_time_s:.1f} s)")
+            out.append(f"{head}  {r.branch}, {stable}{snaps}  ({r.wall_time_s:.1f} s)")
         if self.distinct is None:
             out.append("bistable: unknown (a load path did not reach full load)")
         elif self.distinct:
@@ -285,12 +201,17 @@ class States:
         pos = self.position
         if pos is not None:
             f = self.folds
-            fmt = ("none in range" if x is None else f"{x:.3f} +- {f.tol:g}"
-                   for x in (f.popup_length, f.standout_length))
+            si = self.sheet.si
+
+            def fmt(x):
+                if not math.isfinite(x):
+                    return "none in range"
+                return f"{x:.5f}" + ("" if si is None else f" ({1e3 * si.metres(x):.5g} mm)")
+
             out.append(f"fold lengths of this planform at a/R = {f.curvature:g} (hmax "
-                       f"{self.fold_hmax:g}, L/a in [{f.length_range[0]:g}, "
-                       f"{f.length_range[1]:g}]): L0* = {next(fmt)}, L1* = {next(fmt)}  "
-                       f"({f.wall_time_s:.0f} s)")
+                       f"{f.hmax:g}, L/a in [{f.length_range[0]:g}, "
+                       f"{f.length_range[1]:g}]): L0* = {fmt(f.popup_length)}, "
+                       f"L1* = {fmt(f.standout_length)}  ({f.wall_time_s:.0f} s)")
             out.append(f"  {pos.text}")
             if pos.states in (1, 2) and self.distinct is not None \
                     and (pos.states == 2) != self.distinct:
@@ -301,9 +222,24 @@ class States:
     def __str__(self) -> str:
         return "\n".join(self.lines())
 
+    def __repr__(self) -> str:
+        d = ", ".join(f"{x:.6g}" for x in self.deflections)
+        return (f"States({self.sheet!r}, hmax={self.curvature_first.hmax:g}: d/a ({d}), "
+                f"{'/'.join(self.names)}, bistable={self.bistable})")
+
+    def _repr_pretty_(self, p, cycle) -> None:
+        p.text(repr(self) if cycle else str(self))
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return "<pre>" + escape(str(self)) + "</pre>"
+
     def summary(self) -> dict:
         """JSON-ready summary (the ``--json`` of ``solve --path both``): the
-        verdict, both results' summaries, the fold lengths and the position."""
+        verdict, both results' summaries, the fold lengths and the position;
+        for a sheet made from SI quantities also ``si`` (:meth:`in_si`:
+        ``deflections_m``, ``separation_m``, the folds in metres)."""
         pos = self.position
         return {"sheet": self.sheet.to_dict(), "gravity": self.curvature_first.target_gravity,
                 "hmax": self.curvature_first.hmax, "converged": self.converged,
@@ -311,12 +247,12 @@ class States:
                 "separation": self.separation, "same_tol": self.same_tol,
                 "deflections": {"curvature-first": self.deflections[0],
                                 "gravity-first": self.deflections[1]},
+                "names": {"curvature-first": self.names[0], "gravity-first": self.names[1]},
                 "curvature_first": self.curvature_first.summary(),
                 "gravity_first": self.gravity_first.summary(),
-                "folds": None if self.folds is None else
-                dict(self.folds.summary(), hmax=self.fold_hmax),
+                "folds": None if self.folds is None else self.folds.summary(),
                 "position": None if pos is None else pos.to_json(),
-                "version": __version__}
+                "si": self.in_si(), "version": __version__}
 
     def write(self, filename) -> list:
         """Write the summary (``.json``), or each end state (``.vtu``: the path
@@ -345,35 +281,38 @@ def with_path(filename, path: str) -> str:
     return f"{root}.{path}{ext}"
 
 
-def solve_both(sheet: Sheet, hmax: float = 0.03, *, folds: bool = False, lengths=None,
-               fold_hmax=None, fold_tol: float = 0.005, same_tol: float = SAME_TOL,
-               progress: bool = False, **options) -> States:
+def solve_both(sheet: Sheet, hmax: float = DEFAULT_HMAX, *, folds: bool = False,
+               lengths=None, fold_hmax=None, same_tol: float = SAME_TOL,
+               progress: bool = False, fold_tol=None, **options) -> States:
     """Solve ``sheet`` along both load paths and say whether it is bistable.
 
     Parameters
     ----------
     sheet : Sheet
     hmax : float
-        Mesh size of both solves (default 0.03, as :func:`~skfem_sheet.solve.solve`).
+        Mesh size of both solves (default
+        :data:`~skfem_sheet.params.DEFAULT_HMAX`, as :func:`~skfem_sheet.solve.solve`).
     folds : bool
         Also find the fold lengths ``L0*`` and ``L1*`` of the sheet's planform
-        (a trapezoid of its tip width) at its curvature, by continuation in L
-        both ways (:func:`~skfem_sheet.bistability.fold_lengths`; about a
-        minute at hmax 0.1, several on finer meshes), and say where the sheet's
-        length sits against them (:attr:`States.position`).  Needs gravity 1.
+        at its curvature and material (:func:`~skfem_sheet.bistability.fold_lengths`:
+        the branches in L traced, their ends located on the mesh
+        ``fold_hmax``), and say where the sheet's length sits against them
+        (:attr:`States.position`).  Needs gravity 1.
     lengths : (float, float), optional
-        The range of L/a searched for the folds (default 0.6 to 2.4, widened
-        to hold the sheet's length).
+        The range of L/a searched for the folds (default
+        :func:`~skfem_sheet.bistability.fold_range`: 0.6 to 2.4, widened to
+        hold the sheet's length).
     fold_hmax : float, optional
-        Mesh size of the fold search (default ``hmax``: the same mesh as the
-        solves, so that the two answers agree).
-    fold_tol : float
-        The folds are located to ``+- fold_tol``.
+        Mesh size the folds are located on (default ``hmax``: the same mesh
+        size as the solves, so that the two answers agree).
     same_tol : float
         End states closer than this (largest nodal distance, in base widths)
         are one state.
     progress : bool
         Progress bars on stderr (the solves and the fold search).
+    fold_tol
+        Deprecated and ignored (the folds are located to
+        :data:`~skfem_sheet.bistability.FOLD_TOL`, not bracketed).
     **options
         Any other option of :func:`~skfem_sheet.solve.solve` (``layers``,
         ``refine``, ``solver``, ``symmetric``, ``start``, ``coarse_hmax``,
@@ -388,11 +327,12 @@ def solve_both(sheet: Sheet, hmax: float = 0.03, *, folds: bool = False, lengths
 
     Examples
     --------
-    The paper's rectangle at L/a = 1.3, a/R = 2.5 (on a coarse mesh):
+    The paper's rectangle at L/a = 1.3, a/R = 2.5 (on a coarse mesh): two
+    states, and two names.
 
     >>> s = solve_both(Sheet(length=1.3, curvature=2.5), hmax=0.2)
-    >>> s.bistable, [round(d, 2) for d in s.deflections]
-    (True, [0.05, 0.5])
+    >>> s.bistable, [round(d, 2) for d in s.deflections], s.names
+    (True, [0.05, 0.5], ('curvature-dominated', 'gravity-dominated'))
     """
     if not isinstance(sheet, Sheet):
         raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
@@ -403,17 +343,18 @@ def solve_both(sheet: Sheet, hmax: float = 0.03, *, folds: bool = False, lengths
             f"{unknown[0]} is not an option of solve_both"
             + (" (it sets it itself; solve each path on its own for that)" if own else "")
             + f"; allowed: {', '.join(_SOLVE_OPTIONS)}")
+    if fold_tol is not None:
+        warnings.warn("fold_tol is deprecated and ignored: the folds are located (to "
+                      "bistability.FOLD_TOL), not bracketed", DeprecationWarning, stacklevel=2)
     same_tol = check_range("same_tol", same_tol, 0, None, lo_open=True)
     gravity = options.get("gravity", 1.0)
     if folds:
-        if sheet.planform is not None:
-            raise ParameterError("folds needs a trapezoid sheet (fold lengths are found for a "
-                                 "tip width b/a); this sheet has a planform")
         if gravity != 1.0:
             raise ParameterError(f"folds needs gravity 1 (fold lengths are found under the "
                                  f"sheet's own weight), got gravity {gravity!r}")
-        lengths = _fold_range(sheet.length, lengths)
-        fold_hmax = hmax if fold_hmax is None else fold_hmax
+        lengths = fold_range(sheet.length, lengths)
+        fold_hmax = hmax if fold_hmax is None else check_range("fold_hmax", fold_hmax, 0, None,
+                                                               lo_open=True)
     results = [solve(sheet, path=p, hmax=hmax, on_failure="return", progress=progress,
                      **options) for p in ("curvature-first", "gravity-first")]
     separation = float("nan")
@@ -421,27 +362,11 @@ def solve_both(sheet: Sheet, hmax: float = 0.03, *, folds: bool = False, lengths
         separation = _separation(*results)
     found = None
     if folds:
-        found = fold_lengths(sheet.tip_width, sheet.curvature, lengths=lengths, hmax=fold_hmax,
+        found = fold_lengths(sheet, hmax=fold_hmax, lengths=lengths,
                              layers=options.get("layers"), solver=options.get("solver", "auto"),
-                             tol=fold_tol, thickness=sheet.thickness, modulus=sheet.modulus,
                              progress=progress)
     return States(results[0], results[1], separation, same_tol, found,
                   fold_hmax if folds else None)
-
-
-def _fold_range(length, lengths):
-    """The range of L/a of the fold search: ``lengths``, or 0.6 to 2.4 widened to
-    hold ``length`` with a margin; it must hold ``length``."""
-    if lengths is None:
-        return (min(0.6, 0.8 * length), max(2.4, min(20.0, 1.25 * length)))
-    try:
-        lo, hi = (float(x) for x in lengths)
-    except (TypeError, ValueError):
-        raise ParameterError(f"lengths must be (short, long), got {lengths!r}") from None
-    if not lo < length < hi:
-        raise ParameterError(f"lengths must hold the sheet's length {length:g}: "
-                             f"short < {length:g} < long, got {lengths!r}")
-    return lo, hi
 
 
 def _separation(a: Result, b: Result) -> float:

@@ -83,9 +83,9 @@ def add_solve_args(p, hmax=0.03) -> None:
                         "sheet bistable?)")
     p.add_argument("--folds", nargs="?", const="auto", default=None, metavar="SHORT:LONG",
                    help="with --path both: also find the fold lengths L0*, L1* of this "
-                        "planform at this curvature (continuation in L/a over SHORT:LONG, "
-                        "default 0.6:2.4 widened to hold --length; a minute at hmax 0.1, "
-                        "several on finer meshes) and say where the sheet's length sits")
+                        "planform at this curvature and material (its branches in L/a over "
+                        "SHORT:LONG, default 0.6:2.4 widened to hold the length, their ends "
+                        "located on --hmax) and say where the sheet's length sits")
     p.add_argument("--hmax", type=float, default=hmax, help=f"mesh size (default {hmax})")
     p.add_argument("--layers", type=int, default=None, help="element layers through the thickness")
     p.add_argument("--refine", type=int, default=0,
@@ -120,7 +120,8 @@ def add_solve_args(p, hmax=0.03) -> None:
     p.add_argument("--sensitivities", default=None, metavar="NAME,...",
                    help="derivatives of d (and of the energy and the tip angle) by these "
                         "parameters: modulus, thickness, curvature, gravity, length, tip_width "
-                        "(in --json under 'sensitivities'; with --si also in SI units)")
+                        "(in --json under 'sensitivities'; with --si also in SI units; with "
+                        "--path both one set per path)")
 
 
 def register(subparsers) -> None:
@@ -281,8 +282,10 @@ def run(args) -> int:
           + f"  ({status})")
     if result.converged:
         stable = {True: "stable", False: "unstable", None: "stability unknown"}[result.stable]
-        print(f"  {result.branch} branch (this load path's), {stable}; --path both tells "
-              f"whether the sheet is bistable")
+        why = f" ({result.mode.reason} with the length)" if result.mode is not None and \
+            result.mode.reason.startswith("the ") else ""
+        print(f"  {result.branch}{why}, {stable}; --path both tells whether the sheet is "
+              f"bistable")
     print(f"  {result.path}, {result.dofs} dofs{'' if result.symmetric else ' (whole sheet)'}, "
           f"{result.newton_iterations} Newton iterations "
           f"in {result.load_steps} load steps, {result.wall_time_s:.1f} s "
@@ -309,10 +312,9 @@ def run(args) -> int:
 def run_both(args, sheet) -> int:
     """``--path both``: both load paths, whether their end states differ, the fold
     lengths with ``--folds``; 0 if both converged, else 1."""
-    for flag in ("series", "sensitivities"):
-        if getattr(args, flag, None):
-            raise ParameterError(f"--{flag} is for one load path: run --path curvature-first "
-                                 f"and --path gravity-first, each with its own --{flag}")
+    if getattr(args, "series", None):
+        raise ParameterError("--series is for one load path: run --path curvature-first "
+                             "and --path gravity-first, each with its own --series")
     lengths = None
     if args.folds not in (None, "auto"):
         lengths = parse_range(args.folds, "--folds", pair="short:long", example="0.6:2.4")
@@ -320,9 +322,22 @@ def run_both(args, sheet) -> int:
     states = solve_both(sheet, hmax=args.hmax, folds=args.folds is not None, lengths=lengths,
                         progress=not args.quiet, layers=args.layers, refine=args.refine,
                         solver=args.solver, symmetric=not args.full_sheet, start=_start(args),
-                        coarse_hmax=args.coarse_hmax, gravity=args.gravity)
+                        coarse_hmax=args.coarse_hmax, gravity=args.gravity,
+                        sensitivities=getattr(args, "sensitivities", None) or ())
+    if getattr(args, "si", None) is not None:   # the SI values of d's sensitivities too
+        si = parse_si(args.si)
+        states = replace(states, **{
+            name: replace(r, sensitivities=r.sensitivities.with_si(
+                si["base_width"], si["density"], si.get("gravity", 9.81)))
+            for name, r in (("curvature_first", states.curvature_first),
+                            ("gravity_first", states.gravity_first))
+            if r.sensitivities is not None})
     for line in states.lines(si_base_width(args))[1:]:   # the first: the header, printed
         print(line)
+    for r in (states.curvature_first, states.gravity_first):
+        if r.sensitivities is not None:
+            print(f"  {r.path}:")
+            _print_sensitivities(r.sensitivities)
     written = []
     if args.json:
         written += states.write(args.json)

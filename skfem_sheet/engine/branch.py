@@ -182,11 +182,13 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         from its prediction failed: it landed on another branch.
     locate : bool or callable
         Locate a fold when a step fails (see the module docstring).  A
-        callable ``locate(counter, u, p, i, dudp, last_try) -> FoldPoint or
-        None`` locates it instead of :func:`~skfem_sheet.engine.fold.locate_fold`
-        (e.g. along the branch, :func:`~skfem_sheet.engine.fold.fold_on_branch`,
-        for a problem whose fold system has a small basin); ``last_try`` is
-        True at the last failed step before the branch is given up.
+        callable ``locate(counter, u, p, i, dudp, factorization, last_try) ->
+        FoldPoint or None`` locates it instead of
+        :func:`~skfem_sheet.engine.fold.locate_fold` (e.g. along the branch,
+        :func:`~skfem_sheet.engine.fold.fold_on_branch`, for a problem whose
+        fold system has a small basin), from the last equilibrium ``(u, p)``
+        with its tangent ``dudp`` and factorisation; ``last_try`` is True at
+        the last failed step before the branch is given up.
     check_inertia : bool
         Passed to :func:`~skfem_sheet.engine.fold.locate_fold`.
     keep_states : bool
@@ -327,7 +329,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
             # only before the branch is given up: after a failed step far from
             # a fold the approach would be spent for nothing
             if callable(locate):
-                fold = locate(counter, u, p, i, dudp, last_try)
+                fold = locate(counter, u, p, i, dudp, fact, last_try)
             else:
                 fold, _ = locate_fold(counter, u, p, i, v0=dudp, tol=tol,
                                       check_inertia=check_inertia,

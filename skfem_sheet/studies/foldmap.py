@@ -4,7 +4,10 @@ For every point ``(b/a, a/R)`` of a grid, :func:`~skfem_sheet.bistability.fold_l
 follows the curvature-dominated branch from a short sheet with increasing L
 and the gravity-dominated one from a long sheet with decreasing L, and locates
 their folds, the standout length ``L1*`` and the pop-up length ``L0*``
-(paper, Figs. 6 and 7).  :func:`fold_map` runs the points in parallel (local
+(paper, Figs. 6 and 7), with the minimally augmented system on the point's
+own mesh (to :data:`~skfem_sheet.bistability.FOLD_TOL`; a row that finds no
+fold says why in ``curvature_dominated_reason`` /
+``gravity_dominated_reason``).  :func:`fold_map` runs the points in parallel (local
 processes, or a Dask cluster) into one tidy table, one row per point, with
 both branch curves ``d(L)`` stored in it; it runs on the same runner as
 :func:`skfem_sheet.studies.sweep.run_sweep` (:mod:`skfem_sheet.studies.runner`:
@@ -45,7 +48,7 @@ import numpy as np
 from ..bistability import fold_lengths
 from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
 from ..io import dumps_json
-from ..params import ParameterError
+from ..params import ParameterError, Sheet
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
@@ -63,15 +66,23 @@ from .runner import (
     typed_frame,
 )
 
-__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "fold_map", "row_coarse_hmax",
+__all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "map_sheet", "fold_map",
+           "row_coarse_hmax",
            "branch_curve", "transition_length", "steepest_interval", "modes", "critical_tip_width",
            "CURVE_PARAMETERS", "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves",
            "critical_curve"]
 
-#: Input parameters of a map point and their defaults.
+#: Input parameters of a map point and their defaults.  ``tol``: the
+#: shortest step of the continuations (``min_step`` of
+#: :func:`~skfem_sheet.bistability.fold_lengths`; it was the half-width of
+#: the fold's bisection bracket before the folds were located, hence its name).
 MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
                   "hmax": 0.1, "layers": None, "step": 0.1, "tol": 0.005, "thickness": 0.03,
                   "modulus": 735.0, "solver": "auto"}
+#: The journal keys' tag: rows whose folds were bracketed by failed solves
+#: (before the folds were located) carry ``"fold-map"`` and are not served for
+#: the same point now (their fold lengths are bisection points, +- ``tol``).
+_KEY_TAG = "fold-map/located"
 _NUMERIC = ("tip_width", "curvature", "length_min", "length_max", "hmax", "step", "tol",
             "thickness", "modulus")
 
@@ -116,7 +127,7 @@ def map_key(point) -> str:
     True
     """
     p = _normalize({k: point[k] for k in MAP_PARAMETERS if k in point})
-    return hash_key(["fold-map", *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
+    return hash_key([_KEY_TAG, *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
 
 
 def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
@@ -161,10 +172,16 @@ def _empty_record(point, key):
 
 
 def _curve_json(branch) -> str:
-    return dumps_json({"lengths": [round(float(x), 10) for x in branch.lengths],
-                       "deflection": [float(x) for x in branch.deflections],
-                       "stable": [None if s is None else bool(s) for s in branch.stable]},
-                      compact=True)
+    """A branch curve as JSON: its points, and its located fold last (stability
+    ``null``: the marginal state where the branch ends)."""
+    L = [round(float(x), 10) for x in branch.lengths]
+    d = [float(x) for x in branch.deflections]
+    st = [None if s is None else bool(s) for s in branch.stable]
+    if branch.fold is not None and math.isfinite(branch.fold_deflection):
+        L.append(round(float(branch.fold), 10))
+        d.append(float(branch.fold_deflection))
+        st.append(None)
+    return dumps_json({"lengths": L, "deflection": d, "stable": st}, compact=True)
 
 
 def _nan(x):
@@ -189,15 +206,31 @@ def row_coarse_hmax(hmax: float):
     return COARSE_HMAX[0] if 2 * float(hmax) <= COARSE_HMAX[0] * (1 + 1e-12) else None
 
 
+def map_sheet(point) -> Sheet:
+    """The sheet of a map point: its planform and material at ``length_min``.
+
+    Examples
+    --------
+    >>> map_sheet(map_points([0.5], [2.5])[0])
+    Sheet(L/a = 0.5, b/a = 0.5, a/R = 2.5, h/a = 0.03, E/(rho g a) = 735)
+    """
+    return Sheet(length=point["length_min"], tip_width=point["tip_width"],
+                 curvature=point["curvature"], thickness=point["thickness"],
+                 modulus=point["modulus"])
+
+
 def _fill_map_record(point, rec) -> None:
-    """Put the fold lengths and branch curves of a map point into its record
-    (traced coarse to fine on fine meshes, :func:`row_coarse_hmax`; the
-    record's ``newton_iterations`` counts the coarse traces' too)."""
-    r = fold_lengths(point["tip_width"], point["curvature"],
-                     lengths=(point["length_min"], point["length_max"]), hmax=point["hmax"],
+    """Put the fold lengths and branch curves of a map point into its record:
+    :func:`~skfem_sheet.bistability.fold_lengths` with the branches on the
+    point's own mesh (traced first on the coarse mesh of
+    :func:`row_coarse_hmax` where there is one), the folds located there; the
+    record's ``newton_iterations`` counts the factorisations of both meshes."""
+    coarse = row_coarse_hmax(point["hmax"])
+    r = fold_lengths(map_sheet(point), hmax=point["hmax"],
+                     lengths=(point["length_min"], point["length_max"]), branches=True,
+                     coarse_hmax=coarse if coarse is not None else 0,
                      layers=point["layers"], solver=point["solver"], step=point["step"],
-                     tol=point["tol"], thickness=point["thickness"],
-                     modulus=point["modulus"], coarse_hmax=row_coarse_hmax(point["hmax"]))
+                     min_step=min(point["tol"], point["step"]))
     up, down = r.increasing, r.decreasing
     notes = []
     if up.start_snapped:
@@ -206,18 +239,16 @@ def _fill_map_record(point, rec) -> None:
     if down.start_snapped:
         notes.append(f"the gravity-dominated branch does not exist at L/a = "
                      f"{point['length_max']:g} (raise length_max)")
-    width = (r.standout_length - r.popup_length
-             if r.popup_length is not None and r.standout_length is not None else None)
-    rec.update(popup_length=_nan(r.popup_length), standout_length=_nan(r.standout_length),
-               bistable=bool(r.bistable), bistable_width=_nan(width),
-               converged=not notes, message="; ".join(notes),
-               curvature_dominated_reason=up.reason, gravity_dominated_reason=down.reason,
+    rec.update(popup_length=_nan(r.popup.length if r.popup else None),
+               standout_length=_nan(r.standout.length if r.standout else None),
+               bistable=bool(r.bistable), bistable_width=float(r.width),
+               converged=not notes, message="; ".join(notes) if notes else r.message,
+               curvature_dominated_reason=up.reason,
+               gravity_dominated_reason=down.reason,
                curvature_dominated_snapped=bool(up.start_snapped),
                gravity_dominated_snapped=bool(down.start_snapped),
                curvature_dominated=_curve_json(up), gravity_dominated=_curve_json(down),
-               newton_iterations=int(up.newton_iterations
-                                     + (down.newton_iterations if down is not up else 0)
-                                     + r.coarse_newton_iterations),
+               newton_iterations=int(r.factorizations + r.trace_factorizations),
                wall_time_s=float(r.wall_time_s))
     rec["transition_length"] = _nan(transition_length(rec))
 
