@@ -4,9 +4,9 @@ Two questions of a researcher with their own sheets (paper, Figs. 2, 3, 5):
 
 - *How sensitive are the standout and pop-up lengths to the thickness, the
   modulus, ...?*  :func:`locate_folds` locates ``L1*`` and ``L0*`` of one
-  sheet with the minimally augmented system (the located folds' null vectors
-  included) and :func:`fold_point_sensitivities` differentiates a located
-  fold by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
+  sheet (:func:`~skfem_sheet.bistability.fold_lengths`: the located folds'
+  states and null vectors kept) and :func:`fold_point_sensitivities`
+  differentiates a located fold by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
   (:func:`skfem_sheet.analyses.sensitivity.fold_sensitivities`): no fold is
   located again at another parameter value.
 - *Which modulus makes the model match the deflections I measured?*
@@ -39,10 +39,11 @@ import numpy as np
 
 from .analyses.observables import tip_deflection
 from .analyses.sensitivity import PARAMETERS, check_parameters, fold_sensitivities
+from .bistability import fold_lengths
 from .continuation import PATHS
-from .engine import Tolerances, locate_fold, natural
-from .foldcurve import TOLERANCES, SheetFoldProblem, default_start_length
-from .params import ParameterError, Sheet, check_finite, check_range
+from .engine import Tolerances
+from .foldcurve import SheetFoldProblem
+from .params import DEFAULT_HMAX, ParameterError, Sheet, check_finite, check_range
 from .problem import SheetProblem
 from .result import SolveError
 from .solve import solve
@@ -177,114 +178,99 @@ class _Located:
     p: np.ndarray
 
 
-def _follow_to_fold(P, p0, path, stop, step):
-    """A solve along ``path`` at ``p0`` and natural continuation in L to the
-    fold, located (tightly); ``(fold or None, factorisations, reason)``."""
-    try:
-        u0, nfact = P.solve_state(p0, path)
-    except ParameterError as err:
-        return None, 0, str(err)
-    branch = natural(P, u0, p0, "L", stop, step=step, min_step=5e-4, max_step=0.05,
-                     tol=TOLERANCES, jump=0.1, keep_states=False)
-    nfact += branch.stats.factorizations
-    if branch.fold is None:
-        return None, nfact, branch.reason or "the branch reached the end of the range"
-    fold, res = locate_fold(P, branch.fold.u, branch.fold.p, "L", v0=branch.fold.v,
-                            tol=FOLD_TOLERANCES)
-    nfact += res.stats.factorizations
-    return (fold or branch.fold), nfact, branch.reason
+def locate_folds(sheet: Sheet = None, *legacy, hmax: float = DEFAULT_HMAX,
+                 kinds=("standout", "popup"), lengths=None, layers=None, solver: str = "auto",
+                 parameters=None, progress: bool = False, **legacy_keywords) -> dict:
+    """The standout and pop-up lengths of a sheet's planform at its curvature
+    and material, located, with their sensitivities.
 
+    The folds are :func:`~skfem_sheet.bistability.fold_lengths`' (the
+    branches in L traced, their ends located on the mesh ``hmax`` made at
+    their lengths, to :data:`~skfem_sheet.bistability.FOLD_TOL`, the
+    eigenvalue crossing confirmed), and each is differentiated by
+    ``dL*/dp = -(phi . R_p) / (phi . R_L)`` (:func:`fold_point_sensitivities`):
+    no fold is located again at another parameter value.
 
-def locate_folds(tip_width: float = 1.0, curvature: float = 2.5, *, hmax: float = 0.1,
-                 thickness: float = 0.03, modulus: float = 735.0, kinds=("standout", "popup"),
-                 start_length=None, length_range=(0.5, 3.0), layers=None,
-                 solver: str = "auto", parameters=None) -> dict:
-    """The standout and pop-up lengths of one sheet, located, with their sensitivities.
-
-    ``L1*`` (``"standout"``): a curvature-first solve at ``start_length``
-    (default :func:`~skfem_sheet.foldcurve.default_start_length`, below the
-    fold) and natural continuation in L upward to the fold, located with
-    the minimally augmented system (:func:`skfem_sheet.engine.locate_fold`,
-    to :data:`FOLD_TOLERANCES`).  ``L0*`` (``"popup"``): a gravity-first
-    solve just below ``L1*`` (inside the bistable range) and continuation
-    downward.  A fold more than :data:`MAX_FOLD_STRETCH` from the length
-    its mesh was made at is located again on a mesh made at its length (a
-    stretched mesh is another discretisation, and moves the fold by its
-    discretisation error).
+    Parameters
+    ----------
+    sheet : Sheet
+        Its planform, curvature and material (its length must lie in
+        ``lengths``).
+    hmax : float
+    kinds : iterable of {"standout", "popup"}
+    lengths : (float, float), optional
+        The lengths searched (:func:`~skfem_sheet.bistability.fold_range`).
+    parameters : iterable of str, optional
+        Default: all but the length; ``()`` for none.
+    legacy, legacy_keywords
+        The old call ``locate_folds(tip_width, curvature, hmax=...,
+        thickness=..., modulus=...)`` still works for one release, with a
+        :class:`DeprecationWarning`.
 
     Returns
     -------
     dict
-        ``{kind: FoldSensitivities}`` for the folds found (``parameters``:
-        default all but the length; ``()`` for none).
+        ``{kind: FoldSensitivities}`` for the folds found (``problem``: the
+        :class:`~skfem_sheet.sheet_shape.SheetShapeProblem` of the fold's
+        mesh, in L; ``fold``: the located fold on it).
 
     Raises
     ------
     ParameterError
-        If a fold is not found (not bistable at this sheet, or a length
-        range that misses it), naming why.
+        If a fold asked for is not found (not bistable at this sheet, or a
+        length range that misses it), naming why.
     """
+    if not isinstance(sheet, Sheet):
+        sheet = _legacy_sheet(sheet, legacy, legacy_keywords)
+    elif legacy or legacy_keywords:
+        raise ParameterError("locate_folds(sheet, ...) takes the planform, curvature, "
+                             "thickness and modulus from the Sheet, got also "
+                             f"{', '.join(sorted(legacy_keywords)) or 'positional arguments'}")
     kinds = tuple(kinds)
     for k in kinds:
         if k not in ("standout", "popup"):
             raise ParameterError(f"kinds must be from standout, popup, got {k!r}")
-    curvature = check_range("curvature", curvature, 0, 2 * np.pi, lo_open=True, hi_open=True)
-    lo, hi = (check_range("length_range", float(x), 0.05, 20.0) for x in length_range)
-    start = default_start_length(curvature) if start_length is None else float(start_length)
-    if not lo < start < hi:
-        raise ParameterError(f"start_length must be inside length_range {length_range!r}, "
-                             f"got {start!r}")
-
-    def problem(mesh_length):
-        return SheetFoldProblem(curvature, hmax, mesh_length, tip_width, thickness=thickness,
-                                modulus=modulus, layers=layers, solver=solver)
-
+    if sheet.curvature == 0:
+        raise ParameterError("curvature must be in (0, 2 pi) for fold lengths, got 0 (a flat "
+                             "clamp has one branch)")
+    folds = fold_lengths(sheet, hmax=hmax, lengths=lengths, layers=layers, solver=solver,
+                         progress=progress, keep_states=True)
     found = {}
-    # L1*: up from the start
-    P = problem(1.08 * start)
-    p0 = np.array([start, tip_width, curvature])
-    fold, nfact, why = _follow_to_fold(P, p0, "curvature-first", min(hi, 2.0 * 1.08 * start),
-                                       0.02)
-    if fold is None:
-        raise ParameterError(f"no standout fold at b/a = {tip_width:g}, a/R = {curvature:g} "
-                             f"from L/a = {start:g}: {why}")
-    P, fold, nfact = _on_own_mesh(problem, P, fold, nfact, "curvature-first", -1, hi)
-    if "standout" in kinds:
-        found["standout"] = _with_work(fold_point_sensitivities(P, fold, parameters), nfact)
-    if "popup" in kinds:
-        # L0*: down from just below L1* (inside the bistable range), gravity-first
-        L1 = float(fold.value)
-        Q = P if abs(L1 / P.mesh_parameters[0] - 1) < 0.02 else problem(L1)
-        g, ng, whyg = _follow_to_fold(Q, np.array([L1 - 0.02, tip_width, curvature]),
-                                      "gravity-first", lo, 0.02)
-        if g is None:
-            raise ParameterError(f"no pop-up fold at b/a = {tip_width:g}, a/R = {curvature:g} "
-                                 f"below L1* = {L1:.4f}: {whyg}")
-        Q, g, ng = _on_own_mesh(problem, Q, g, ng, "gravity-first", +1, lo)
-        found["popup"] = _with_work(fold_point_sensitivities(Q, g, parameters), ng)
+    for kind in kinds:
+        fold = folds.standout if kind == "standout" else folds.popup
+        if fold is None:
+            raise ParameterError(f"no {'standout' if kind == 'standout' else 'pop-up'} fold "
+                                 f"of {sheet.describe()} in L/a {folds.length_range}: "
+                                 f"{folds.fold_text(kind)}")
+        fs = fold_point_sensitivities(fold.problem, fold.point, parameters)
+        found[kind] = _with_work(fs, fold.factorizations)
     return found
 
 
-#: A fold farther than this (relative) from the length its mesh was made at is
-#: located again on a mesh made at it (:func:`locate_folds`).
-MAX_FOLD_STRETCH = 0.1
+def _legacy_sheet(tip_width, legacy, keywords) -> Sheet:
+    """The Sheet of the old call ``locate_folds(tip_width, curvature, ...)``
+    (with a deprecation warning)."""
+    import warnings
 
-
-def _on_own_mesh(problem, P, fold, nfact, path, direction, end):
-    """The fold located again on a mesh made at its length, if its mesh was
-    made farther than :data:`MAX_FOLD_STRETCH` from it (a stretched mesh's
-    elements are another discretisation); else as it is."""
-    L = float(fold.value)
-    if abs(L / P.mesh_parameters[0] - 1) <= MAX_FOLD_STRETCH:
-        return P, fold, nfact
-    Q = problem(L)
-    start = np.array(fold.p, dtype=float)
-    start[0] = L - direction * 0.03
-    stop = min(end, L + 0.2) if direction < 0 else max(end, L - 0.2)
-    g, n, _ = _follow_to_fold(Q, start, path, stop, 0.01)
-    if g is None:
-        return P, fold, nfact
-    return Q, g, nfact + n
+    warnings.warn("locate_folds(tip_width, curvature, thickness=, modulus=) is deprecated: "
+                  "pass the Sheet, locate_folds(Sheet(length=..., tip_width=..., "
+                  "curvature=..., thickness=..., modulus=...), hmax=...)",
+                  DeprecationWarning, stacklevel=3)
+    names = ("tip_width", "curvature")
+    given = dict(zip(names[1:], legacy))
+    if tip_width is not None:
+        given["tip_width"] = tip_width
+    for k in ("tip_width", "curvature", "thickness", "modulus", "start_length",
+              "length_range"):
+        if k in keywords:
+            given[k] = keywords.pop(k)
+    if keywords:
+        raise ParameterError(f"locate_folds got unknown arguments {', '.join(sorted(keywords))}")
+    lo, hi = given.pop("length_range", (0.5, 3.0))
+    start = given.pop("start_length", None)
+    return Sheet(length=start if start is not None else lo, tip_width=given.get("tip_width", 1.0),
+                 curvature=given.get("curvature", 2.5), thickness=given.get("thickness", 0.03),
+                 modulus=given.get("modulus", 735.0))
 
 
 def _with_work(fs: FoldSensitivities, nfact) -> FoldSensitivities:
@@ -619,7 +605,7 @@ def _check_identifiable(J, free, where, reference):
 
 
 def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvature-first",
-              hmax: float = 0.1, *, gravity: float = 1.0, solver: str = "auto",
+              hmax: float = DEFAULT_HMAX, *, gravity: float = 1.0, solver: str = "auto",
               max_evaluations: int = 20, xtol: float = 1e-5, layers=None,
               start="coarse", progress: bool = False) -> Calibration:
     """Fit free parameters of ``sheet`` to measured tip deflections.
@@ -646,7 +632,7 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
     path : {"curvature-first", "gravity-first"}
         The load path of each solve (a measurement may name its own).
     hmax : float
-        Mesh size of the solves.
+        Mesh size of the solves (default :data:`~skfem_sheet.params.DEFAULT_HMAX`).
     gravity : float
         The load factor (its starting value if free).
     solver, layers, start

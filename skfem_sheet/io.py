@@ -16,7 +16,7 @@ from .params import ParameterError
 __all__ = ["write_result", "write_json", "check_writable", "whole_sheet_fields",
            "state_fields", "write_vtu", "Frame", "Series", "write_series", "read_pvd",
            "check_directory", "register_point_fields", "extra_point_fields",
-           "atomic_write", "to_jsonable", "dumps_json"]
+           "atomic_write", "to_jsonable", "dumps_json", "in_units"]
 
 #: Extra vertex fields of a solved state for the VTU of ``Result.write``:
 #: callables ``(problem, w, points) -> {name: ndarray (n,) or (n, 3)}`` at the
@@ -135,7 +135,9 @@ def write_result(result, filename) -> None:
 
     The VTU holds the reference mesh (linear tetrahedra) with point data
     ``displacement`` (apply "Warp By Vector" in ParaView to see the deformed
-    sheet) and ``pressure`` (paper convention), and cell data ``psi_over_mu``;
+    sheet) and ``pressure`` (paper convention), and cell data ``psi_over_mu``
+    (in metres and pascals for a sheet made from SI quantities, as its field
+    data ``coordinates_in_metres``, ``base_width_m`` say: :func:`in_units`);
     plus the fields of :func:`register_point_fields` (the mid-surface's
     ``midsurface_u``, ``midsurface_v``, ``midsurface_w``, ``E_ss``, ``E_st``,
     ``E_tt``, ``T_ss_over_Y``, ``T_tt_over_Y``, constant through the thickness).
@@ -145,7 +147,39 @@ def write_result(result, filename) -> None:
         write_json(result.summary(), path)
         return
     fields = whole_sheet_fields(result)
-    write_vtu(path, *fields, point_data=extra_point_fields(result.problem, result.w, fields[0]))
+    extra = extra_point_fields(result.problem, result.w, fields[0])
+    fields, units = in_units(result.sheet, fields)
+    write_vtu(path, *fields, point_data=extra, field_data=units)
+
+
+def in_units(sheet, fields):
+    """The fields of :func:`whole_sheet_fields` in the units of ``sheet``, and
+    the field data that states them.
+
+    A sheet made from SI quantities (``sheet.si``) gets its reference
+    vertices and displacements in metres and its pressure in pascals
+    (``x a``, ``x rho g a``); the field data say so: ``coordinates_in_metres``
+    1, ``base_width_m``, ``stress_scale_Pa`` (the mid-surface fields stay in
+    units of a, strains and ``psi/mu`` are dimensionless).  A dimensionless
+    sheet's fields are returned as they are, with ``coordinates_in_metres`` 0
+    (lengths in base widths).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem_sheet.params import Sheet
+    >>> fields = (np.ones((3, 1)), None, np.ones((1, 3)), np.ones(1), np.ones(1))
+    >>> out, data = in_units(Sheet.from_si(0.04, 0.052, 0.04, 1.2e-3, 0.016, 6e5, 1150), fields)
+    >>> out[0].ravel().tolist(), data["coordinates_in_metres"], data["base_width_m"]
+    ([0.04, 0.04, 0.04], 1.0, 0.04)
+    """
+    si = getattr(sheet, "si", None)
+    if si is None:
+        return fields, {"coordinates_in_metres": 0.0}
+    p, t, U, pressure, psi = fields
+    a = si.base_width
+    return ((p * a, t, U * a, pressure * si.stress, psi),
+            {"coordinates_in_metres": 1.0, "base_width_m": a, "stress_scale_Pa": si.stress})
 
 
 def write_vtu(filename, p, t, displacement, pressure, psi, field_data=None,
@@ -338,8 +372,9 @@ def write_series(directory, name, frames, times=None, data=None) -> str:
     for i, (frame, t) in enumerate(zip(frames, times)):
         rel = f"{name}/{name}_{i:04d}.vtu"
         extra = {**frame.data, **(data[i] if data is not None else {})}
-        write_vtu(os.path.join(directory, rel), *state_fields(frame.problem, frame.w),
-                  field_data={"time": float(t), **extra})
+        fields, units = in_units(frame.problem.sheet, state_fields(frame.problem, frame.w))
+        write_vtu(os.path.join(directory, rel), *fields,
+                  field_data={"time": float(t), **extra, **units})
         entries.append(f'    <DataSet timestep="{float(t)!r}" group="" part="0" '
                        f'file={quoteattr(rel)}/>')
     pvd = ("<?xml version=\"1.0\"?>\n"

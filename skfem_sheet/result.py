@@ -332,12 +332,19 @@ class Result:
         ``params`` (``layers`` there: the layers solved), ``solver`` the
         back-end used, ``snaps`` a list of snap records and ``start_record``
         the start strategy's record (nested); then the ``steps`` and the
-        ``version``.
+        ``version``; ``mode`` (what ``branch`` was read from) and ``si`` (the
+        answer in SI units for a sheet made from SI quantities, :meth:`in_si`:
+        ``deflection_m``, ``energy_J``, the sheet's quantities; None
+        otherwise; the SI scales also as ``params["si"]``).
         """
         rec = self.to_record()
         params = {k: rec.pop(k) for k in ("length", "tip_width", "curvature", "thickness",
                                           "modulus", "gravity", "hmax")}
         params.update(layers=rec.pop("layers_used"), refine=rec.pop("refine"))
+        if self.sheet.planform is not None:
+            params["planform"] = self.sheet.planform.to_dict()
+        if self.sheet.si is not None:
+            params["si"] = self.sheet.si.to_dict()
         out = {k: rec.pop(k) for k in (
             "deflection", "converged", "message", "path", "dofs", "newton_iterations",
             "factorizations", "back_substitutions", "load_steps", "rejected_steps",
@@ -352,6 +359,8 @@ class Result:
         out.update(snaps=[s.to_json() for s in self.snaps],
                    start_record=self.start_record.to_json(),
                    steps=[list(x) for x in self.steps], version=__version__)
+        out["mode"] = None if self.mode is None else self.mode.to_json()
+        out["si"] = self.in_si()
         if self.sensitivities is not None:
             # d's derivatives by parameter name, and every output's with the cost
             out["sensitivities"] = self.sensitivities.of("deflection")
@@ -359,6 +368,73 @@ class Result:
         return out
 
     def write(self, filename):
-        """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu) or
-        the summary (``.json``)."""
+        """Write the deformed sheet (``.vtu``: displacement, pressure, psi/mu; in
+        metres and pascals for a sheet made from SI quantities) or the summary
+        (``.json``)."""
         write_result(self, filename)
+
+    # -- SI and words ------------------------------------------------------------------
+    def in_si(self) -> dict | None:
+        """The answer in SI units, for a sheet made from SI quantities (None
+        otherwise): the sheet's quantities (:meth:`~skfem_sheet.params.Sheet.in_si`,
+        ``_m``, ``_Pa`` ...) and ``deflection_m`` (d, positive downward),
+        ``energy_J`` (the total potential energy of the whole sheet).
+
+        Examples
+        --------
+        >>> from skfem_sheet import solve
+        >>> r = solve(Sheet.from_si(0.04, 0.02, 0.04, 1.2e-3, 0.016, 6e5, 1150), hmax=0.2)
+        >>> bool(abs(r.in_si()["deflection_m"] - 0.04 * r.deflection) < 1e-15)
+        True
+        """
+        si = self.sheet.si
+        if si is None:
+            return None
+        q = self.sheet.in_si()
+        out = {f"{k}_m": q[k] for k in ("base_width", "length", "tip_width", "thickness",
+                                         "radius")}
+        out.update(youngs_modulus_Pa=q["youngs_modulus"], density_kg_m3=q["density"],
+                   gravity_m_s2=q["gravity"], deflection_m=si.metres(self.deflection),
+                   energy_J=self.energy * si.energy)
+        return out
+
+    def lines(self) -> list:
+        """The answer in words, a line each (``print(result)``)."""
+        si = self.sheet.si
+        mm = "" if si is None else f" (d = {1e3 * si.metres(self.deflection):.4g} mm)"
+        status = "converged" if self.converged else f"NOT converged: {self.message}"
+        out = [f"sheet: {self.sheet.describe()}" + ("" if self.target_gravity == 1.0 else
+                                                    f", gravity {self.target_gravity:g}")
+               + f"; {self.path}, hmax {self.hmax:g}"]
+        if si is not None:
+            out.append(f"  SI: {self.sheet.describe_si()}")
+        out.append(f"tip deflection d/a = {self.deflection:.6f}{mm}  ({status})")
+        if self.converged:
+            stable = {True: "stable", False: "unstable", None: "stability unknown"}[self.stable]
+            why = (f" ({self.mode.reason} with the length)" if self.mode is not None
+                   and self.mode.reason.startswith("the ") else "")
+            out.append(f"  {self.branch}{why}, {stable}")
+        for snap in self.snaps:
+            out.append(f"  snapped in the {snap.phase} phase at the fold at {snap.load:.6g} "
+                       f"of its range: d/a {snap.fold_deflection:.6f} -> "
+                       f"{snap.landing_deflection:.6f}")
+        out.append(f"  {self.dofs} dofs, {self.newton_iterations} Newton iterations in "
+                   f"{self.load_steps} load steps, {self.wall_time_s:.1f} s")
+        return out
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines())
+
+    def __repr__(self) -> str:
+        state = (f"{self.branch}, {'stable' if self.stable else 'stable?' if self.stable is None else 'unstable'}"
+                 if self.converged else f"NOT converged ({self.message})")
+        return (f"Result({self.sheet!r}, {self.path}, hmax={self.hmax:g}: "
+                f"d/a = {self.deflection:.6g}, {state})")
+
+    def _repr_pretty_(self, p, cycle) -> None:
+        p.text(repr(self) if cycle else str(self))
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return "<pre>" + escape(str(self)) + "</pre>"

@@ -25,7 +25,8 @@ def test_fold_lengths_closes_its_bars_when_a_continuation_raises(monkeypatch, fa
     monkeypatch.setattr(bistability, "_bars", bars)
     monkeypatch.setattr(bistability, "_follow", follow)
     with pytest.raises(ParameterError, match="could not be solved"):
-        bistability.fold_lengths(1.0, 2.5, lengths=(1.0, 1.7), hmax=0.2, progress=True)
+        bistability.fold_lengths(bistability.Sheet(length=1.0, curvature=2.5),
+                                 lengths=(1.0, 1.7), hmax=0.2, progress=True)
     assert len(made) == 2 and len(calls) == fail_on
     # tqdm marks a closed bar disabled; an open one would linger on the terminal
     assert all(b.bar.disable for b in made)

@@ -150,13 +150,14 @@ def _fake_fold_lengths(up_snapped, down_snapped):
     def branch(snapped, L):
         return SimpleNamespace(lengths=np.array(L), deflections=np.array([0.1, 0.2]),
                                stable=[True, True], reason="", start_snapped=snapped,
-                               newton_iterations=5)
+                               newton_iterations=5, fold=None, fold_deflection=float("nan"))
 
-    def fold_lengths(tip_width, curvature, *, lengths, **kw):
+    def fold_lengths(sheet, *, lengths, **kw):
         return SimpleNamespace(increasing=branch(up_snapped, [lengths[0], lengths[0] + 0.1]),
                                decreasing=branch(down_snapped, [lengths[1], lengths[1] - 0.1]),
-                               popup_length=None, standout_length=None, bistable=False,
-                               wall_time_s=0.1, coarse_newton_iterations=0)
+                               popup=None, standout=None, bistable=False,
+                               width=float("nan"), message="", wall_time_s=0.1,
+                               factorizations=3, trace_factorizations=0)
     return fold_lengths
 
 

@@ -11,7 +11,7 @@ import pytest
 import skfem_sheet.cli.bistability as cli_bistability
 import skfem_sheet.states as states_module
 from skfem_sheet import Sheet, solve
-from skfem_sheet.bistability import Bistability, Branch, BranchPoint
+from skfem_sheet.bistability import FOLD_TOL, Branch, BranchPoint, Fold, FoldLengths
 from skfem_sheet.cli import main
 from skfem_sheet.params import ParameterError
 from skfem_sheet.states import fold_position, solve_both, with_path
@@ -47,8 +47,10 @@ def test_outside_the_bistable_range_both_paths_reach_one_state():
     assert s.separation < 1e-9 and len(s.states) == 1
     lines = s.lines()
     assert "one state: both load paths reach it" in lines[-1]
-    # the branch names (the load paths' history) are not shown for one state
-    assert not any("dominated" in line for line in lines)
+    # one state, one name, whichever path reached it (the name is read from the
+    # state; the paths' histories are their snaps)
+    assert s.names == ("curvature-dominated", "curvature-dominated")
+    assert sum("curvature-dominated" in line for line in lines) == 2
 
 
 def test_a_failed_path_makes_the_verdict_unknown(bistable):
@@ -87,30 +89,41 @@ def test_bad_arguments_name_the_parameter(kw, match):
         solve_both(Sheet(length=1.3, curvature=2.5), hmax=0.2, **kw)
 
 
-def test_folds_need_a_trapezoid():
+def test_a_planform_has_fold_lengths_too():
+    """folds=True for any planform (the mesh stretched in L, the profile with
+    it): the rectangle given as sampled profile has the rectangle's folds, to
+    the difference of the two unstructured meshes (about 0.02 a at hmax 0.2)."""
     from skfem_sheet.params import Planform
-    sheet = Sheet.from_planform(Planform.from_samples([0, 1.3], [1, 1.2]), curvature=2.5)
-    with pytest.raises(ParameterError, match="folds needs a trapezoid"):
-        solve_both(sheet, hmax=0.2, folds=True)
+    sheet = Sheet.from_planform(Planform.from_samples([0, 0.5, 1.3], [1, 1, 1]), curvature=2.5)
+    s = solve_both(sheet, hmax=0.2, folds=True, lengths=(1.0, 1.7))
+    rect = solve_both(Sheet(length=1.3, curvature=2.5), hmax=0.2, folds=True,
+                      lengths=(1.0, 1.7))
+    assert s.folds.bistable and s.position.where == "between" and s.bistable
+    assert s.folds.popup_length == pytest.approx(rect.folds.popup_length, abs=0.03)
+    assert s.folds.standout_length == pytest.approx(rect.folds.standout_length, abs=0.03)
+    assert s.names == ("curvature-dominated", "gravity-dominated")
 
 
 # -- where a length sits against the fold lengths ---------------------------------------------
 def _branch(lengths, fold, snapped=False, reason=""):
     pts = tuple(BranchPoint(L, 0.1, True, 0, 3) for L in lengths)
     bracket = () if fold is None else (fold - 0.005, fold + 0.005)
-    return Branch(pts, fold, bracket, reason, start_snapped=snapped)
+    return Branch(pts, fold, bracket, reason or ("" if fold is None else "fold"),
+                  start_snapped=snapped)
 
 
 def _folds(L0=1.202, L1=1.347, up=None, down=None, curvature=2.5):
     up = up or _branch([0.6, 1.0, L1 - 0.005], L1)
     down = down or _branch([2.4, 1.6, L0 + 0.005], L0)
-    return Bistability(1.0, curvature, 0.1, (0.6, 2.4), L0, L1,
-                       L0 is not None and L1 is not None, up, down)
+    fold = (lambda kind, L: None if L is None else
+            Fold(kind, L, 0.1, (0, 1) if kind == "standout" else (1, 0), 0, 0.1, 1.35))
+    return FoldLengths(Sheet(length=1.3, curvature=curvature), 0.1, (0.6, 2.4),
+                       fold("standout", L1), fold("popup", L0), up, down, 0.1)
 
 
 @pytest.mark.parametrize("length, where, states", [
-    (1.3, "between", 2), (1.0, "below", 1), (2.0, "above", 1), (1.349, "at a fold", None),
-    (1.2, "at a fold", None), (3.0, "unknown", None),
+    (1.3, "between", 2), (1.0, "below", 1), (2.0, "above", 1), (1.347, "at a fold", None),
+    (1.202 + 0.5 * FOLD_TOL, "at a fold", None), (1.349, "above", 1), (3.0, "unknown", None),
 ])
 def test_fold_position(length, where, states):
     pos = fold_position(_folds(), length)
@@ -160,8 +173,6 @@ def test_solve_si_echoes_every_quantity_and_the_deflection_in_mm(capsys):
     (["solve", "--length", "1", "--folds"], "--folds is for --path both"),
     (["solve", "--length", "1", "--path", "both", "--series", "x"], "--series is for one"),
     (["solve", "--length", "1", "--path", "both", "--folds", "2:1x"], "--folds must be"),
-    (["solve", "--length", "1", "--path", "both", "--sensitivities", "length"],
-     "--sensitivities is for one"),
     (["bistability", "--si", SI, "--curvature", "2"], "--si cannot be combined with "
                                                       "--curvature"),
     (["bistability", "--length", "1.3", "--at-length", "1.3"], "--length cannot be combined"),
@@ -175,32 +186,57 @@ def test_bad_arguments_are_one_line(argv, name, capsys):
 
 def test_bistability_says_what_it_is_about(monkeypatch, capsys, tmp_path):
     """The verdict names the planform and curvature over a range of lengths, and says
-    where this sheet sits; no solver jargon beside a fold that was found."""
+    where this sheet sits, in SI units for a sheet given in SI; no solver jargon
+    beside a fold that was found."""
     seen = {}
 
-    def fake(tip_width, curvature, **kw):
-        seen.update(kw, tip_width=tip_width, curvature=curvature)
-        return _folds()
+    def fake(sheet, **kw):
+        seen.update(kw, sheet=sheet)
+        f = _folds()
+        return replace(f, sheet=sheet)
 
     monkeypatch.setattr(cli_bistability, "fold_lengths", fake)
     js = tmp_path / "b.json"
     assert main(["bistability", "--si", SI, "--quiet", "--json", str(js)]) == 0
     out = capsys.readouterr().out
-    assert seen["thickness"] == pytest.approx(0.03175) and seen["curvature"] == 2.5
+    sheet = seen["sheet"]
+    assert sheet.thickness == pytest.approx(0.03175) and sheet.curvature == 2.5
+    assert sheet.si.base_width == 0.05 and seen["hmax"] == 0.03
     assert "h/a = 0.03175, E/(rho g a) = 733.945" in out
-    assert "this planform (b/a = 1) at a/R = 2.5 is bistable for 1.202 < L/a < 1.347" in out
-    assert "this sheet: L/a = 1.3 lies between" in out
+    assert ("this planform (b/a = 1) at a/R = 2.5 is bistable for 1.20200 < L/a < 1.34700"
+            in out)
+    assert "this sheet (L/a = 1.3, L = 65 mm): L/a = 1.3 lies between" in out
+    # the fold lengths in mm too: L1* = 1.347 a = 67.35 mm
+    assert "1.34700 (L* = 67.35 mm)" in out
     assert "bistable: yes" not in out and "Newton" not in out
-    assert json.loads(js.read_text())["position"]["where"] == "between"
+    data = json.loads(js.read_text())
+    assert data["position"]["where"] == "between"
+    assert data["popup_length"] == 1.202 and data["standout_length"] == 1.347
+    assert data["si"]["standout_length_m"] == pytest.approx(0.06735)
     monkeypatch.setattr(cli_bistability, "fold_lengths",
-                        lambda *a, **k: _folds(L0=None, L1=None,
-                                               up=_branch([0.6, 2.4], None),
-                                               down=_branch([2.4, 0.6], None)))
+                        lambda sheet, **k: replace(_folds(L0=None, L1=None,
+                                                          up=_branch([0.6, 2.4], None),
+                                                          down=_branch([2.4, 0.6], None)),
+                                                   sheet=sheet))
     assert main(["bistability", "--curvature", "0.5", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "is not bistable for any L/a in [0.6, 2.4]" in out
     assert "none in range (the curvature-dominated branch held to L/a = 2.4)" in out
     np.testing.assert_equal(seen["lengths"], (0.6, 2.4))
+
+
+def test_solve_path_both_with_sensitivities_gives_one_set_per_path(tmp_path, capsys):
+    js = tmp_path / "both.json"
+    assert main(["solve", "--length", "1.3", "--curvature", "2.5", "--path", "both",
+                 "--hmax", "0.25", "--quiet", "--sensitivities", "modulus", "--json",
+                 str(js)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("d(d/a)/d(modulus)") == 2
+    data = json.loads(js.read_text())
+    up, down = (data[k]["sensitivities"]["modulus"] for k in ("curvature_first",
+                                                                "gravity_first"))
+    # a stiffer sheet sags less on both branches, the drooped one far more so
+    assert up < 0 and down < 0 and abs(down) > abs(up)
 
 
 # -- --si on every command that takes one sheet ---------------------------------------------

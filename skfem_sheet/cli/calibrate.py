@@ -17,7 +17,7 @@ import math
 
 from ..calibration import FIT_PARAMETERS, Measurement, calibrate, read_measurements
 from ..io import check_writable, write_json
-from ..params import ParameterError, Sheet
+from ..params import DEFAULT_HMAX, ParameterError, Sheet
 from .solve import SHEET_DEFAULTS, solver_help
 
 __all__ = ["register", "run", "measurements_from_args"]
@@ -53,7 +53,9 @@ def register(subparsers) -> None:
                         "(default modulus)")
     p.add_argument("--path", default="curvature-first",
                    help="load path of the solves (curvature-first or gravity-first)")
-    p.add_argument("--hmax", type=float, default=0.1, help="mesh size (default 0.1)")
+    p.add_argument("--hmax", type=float, default=DEFAULT_HMAX,
+                   help=f"mesh size (default {DEFAULT_HMAX:g}, the paper's; 0.1 for a quick "
+                        f"look)")
     p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--max-evaluations", type=int, default=20,
                    help="most model evaluations (each one solve per measurement; default 20)")

@@ -3,14 +3,15 @@
 ``--method curves`` (default): one traced fold curve per a/R (L1*, the cusp
 (b/a)*, L0*; and with ``--rectangle`` the curve in (L, a/R) at b/a = 1,
 whose cusp is the curvature where the rectangle becomes bistable).
-``--method grid``: the point-by-point search over a grid (the reference).
-See :mod:`skfem_sheet.studies.foldmap` for the tables.
+``--method grid``: the fold lengths of each point of a grid, its branches
+followed in L and their ends located (the reference).  The tables are
+those of skfem_sheet.studies.foldmap.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParameterError
+from ..params import DEFAULT_HMAX, ParameterError
 from ..studies.foldmap import (
     critical_curve,
     critical_tip_width,
@@ -57,10 +58,15 @@ def register(subparsers) -> None:
                    help="b/a values: a list '0.6,0.8,1' or a range 'start:stop:step'")
     p.add_argument("--curvatures", default="2.5", help="a/R values (list or range)")
     p.add_argument("--lengths", default="0.5:3", help="search range 'short:long' in L/a")
-    p.add_argument("--hmax", type=float, default=0.1)
+    p.add_argument("--hmax", type=float, default=DEFAULT_HMAX,
+                   help=f"mesh size (default {DEFAULT_HMAX:g}, the paper's; 0.1 for a quick "
+                        f"look)")
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--step", type=float, default=0.1, help="largest continuation step in L/a")
-    p.add_argument("--tol", type=float, default=0.005, help="half-width of the fold brackets")
+    p.add_argument("--tol", type=float, default=0.005,
+                   help="grid: the shortest continuation step before a branch is given up "
+                        "where no fold is located (default 0.005; the folds are located to "
+                        "1e-6)")
     p.add_argument("--solver", default="auto", help=solver_help())
     p.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
     p.add_argument("--retry-failed", action="store_true")
@@ -133,7 +139,7 @@ def run(args) -> int:
                   progress=not args.quiet, retry_failed=args.retry_failed)
 
     def fmt(x):
-        return "   none" if not np.isfinite(x) else f"{x:7.3f}"
+        return "   none" if not np.isfinite(x) else f"{x:7.5f}"
 
     print(f"hmax = {args.hmax:g}, h/a = {points[0]['thickness']:g}, E/(rho g a) = "
           f"{points[0]['modulus']:g}, L/a searched in [{lengths[0]:g}, {lengths[1]:g}]")

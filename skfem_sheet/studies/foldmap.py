@@ -48,7 +48,7 @@ import numpy as np
 from ..bistability import fold_lengths
 from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
 from ..io import dumps_json
-from ..params import ParameterError, Sheet
+from ..params import DEFAULT_HMAX, ParameterError, Sheet
 from ..version import __version__
 from .runner import (
     MAX_POINTS,
@@ -77,7 +77,7 @@ __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "map_sheet"
 #: :func:`~skfem_sheet.bistability.fold_lengths`; it was the half-width of
 #: the fold's bisection bracket before the folds were located, hence its name).
 MAP_PARAMETERS = {"tip_width": 1.0, "curvature": 2.5, "length_min": 0.5, "length_max": 3.0,
-                  "hmax": 0.1, "layers": None, "step": 0.1, "tol": 0.005, "thickness": 0.03,
+                  "hmax": DEFAULT_HMAX, "layers": None, "step": 0.1, "tol": 0.005, "thickness": 0.03,
                   "modulus": 735.0, "solver": "auto"}
 #: The journal keys' tag: rows whose folds were bracketed by failed solves
 #: (before the folds were located) carry ``"fold-map"`` and are not served for
@@ -130,7 +130,8 @@ def map_key(point) -> str:
     return hash_key([_KEY_TAG, *[[k, key_value(p[k])] for k in MAP_PARAMETERS]])
 
 
-def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = 0.1, layers=None,
+def map_points(tip_widths, curvatures, *, lengths=(0.5, 3.0), hmax: float = DEFAULT_HMAX,
+               layers=None,
                step: float = 0.1, tol: float = 0.005, thickness: float = 0.03,
                modulus: float = 735.0, solver: str = "auto") -> list:
     """The grid ``tip_widths x curvatures`` as map points (dicts), curvature outermost.
@@ -517,7 +518,8 @@ def _curve_key(point) -> str:
     return hash_key(["fold-curve", *[[k, key_value(p[k])] for k in CURVE_PARAMETERS]])
 
 
-def curve_points(curvatures, *, hmax: float = 0.1, layers=None, thickness: float = 0.03,
+def curve_points(curvatures, *, hmax: float = DEFAULT_HMAX, layers=None,
+                 thickness: float = 0.03,
                  modulus: float = 735.0, solver: str = "auto", rectangle_from=None) -> list:
     """The fold curves of a map: one in (L, b/a) per curvature, and with
     ``rectangle_from = a/R`` one in (L, a/R) at b/a = 1 from that curvature
