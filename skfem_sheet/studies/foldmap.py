@@ -45,7 +45,7 @@ import math
 
 import numpy as np
 
-from ..bistability import fold_lengths
+from ..bistability import FOLD_CURVE_LEVELS, FOLD_CURVE_POINTS, fold_lengths
 from ..foldcurve import trace_curvature_fold_curve, trace_fold_curve
 from ..io import dumps_json
 from ..params import DEFAULT_HMAX, ParameterError, Sheet
@@ -471,14 +471,11 @@ def critical_tip_width(df) -> dict:
 
 # -- the map from fold curves ----------------------------------------------------------------
 #: Fold curves on meshes finer than the first of these are traced coarse to
-#: fine: at that mesh size first, then points of it corrected level by level
-#: on the finer ones and on the curve's own mesh
-#: (``trace_fold_curve(..., coarse_hmax=COARSE_HMAX, fine_points=FINE_POINTS)``;
-#: a step from hmax 0.1 straight to 0.03 leaves some points outside the fold
-#: system's basin).
-COARSE_HMAX = (0.1, 0.06)
+#: fine (:data:`~skfem_sheet.bistability.FOLD_CURVE_LEVELS`, the one rule of
+#: :func:`~skfem_sheet.bistability.fold_curve` too).
+COARSE_HMAX = FOLD_CURVE_LEVELS
 #: Points of the coarse curve refined (besides its ends and the cusp's neighbours).
-FINE_POINTS = 6
+FINE_POINTS = FOLD_CURVE_POINTS
 
 #: Input parameters of one fold curve of the map and their defaults: ``second``
 #: is the curve's second parameter, ``"tip_width"`` (the curve in (L, b/a)

@@ -54,17 +54,18 @@ then :data:`OPTIONS`), then the outputs of
 :meth:`skfem_sheet.solve.Result.to_record` -- the one definition of a result
 row: ``deflection`` (d/a, positive down), ``converged``, ``message``,
 ``branch`` (``Result.branch``: "curvature-dominated" or "gravity-dominated",
-the load path's own branch, switched when the path snapped -- a label of the
-load path, not a classification of the shape: a long sheet whose
-curvature-first path droops gradually, without a detected snap, keeps the label
-"curvature-dominated"; for the physical modes use the fold map,
-:func:`skfem_sheet.studies.foldmap.modes`), ``stable`` (``Result.stable``,
+what the end state is, read from the state itself -- its S-curve's bend
+there, :mod:`skfem_sheet.analyses.mode` -- so that one state has one name
+whichever path reached it; rows journalled before this rule carry the load
+path's history instead: recompute them in a new table), ``stable`` (``Result.stable``,
 empty when unknown), ``negative_eigenvalues``, ``snapped``,
 ``newton_iterations``, ``load_steps``, ``wall_time_s``, ``assembly_s``,
 ``linear_solve_s``, ``dofs``, ``energy``, ``volume_change``, ``kappa_reached``,
 ``gravity_reached``, ``factorizations``, ``rejected_steps``, ``linear_solver``
 (back-end used), ``layers_used`` -- and ``version``, ``key``, ``error``,
-``finished_at`` (UTC).  The journal lines also hold ``host``, ``pid`` and, for
+``finished_at`` (UTC); and ``bistable`` (:func:`bistable_column`): for a sheet
+solved along both paths, whether the two end states are two distinct stable
+states (empty where a path is missing, failed, or its stability unknown).  The journal lines also hold ``host``, ``pid`` and, for
 exceptions, ``traceback``.
 
 Work is grouped by mesh (``length, tip_width, thickness, hmax, layers, refine,
@@ -92,7 +93,7 @@ Examples
 (2, 2.5, 'curvature-first')
 >>> df = run_sweep(points, workers=1, progress=False)
 >>> df[["curvature", "converged", "branch"]].values.tolist()
-[[0.0, True, 'curvature-dominated'], [2.5, True, 'curvature-dominated']]
+[[0.0, True, 'gravity-dominated'], [2.5, True, 'curvature-dominated']]
 """
 from __future__ import annotations
 
@@ -107,7 +108,7 @@ from ..build import BuildChain
 from ..continuation import PATHS
 from ..linalg import SOLVERS, available_solvers
 from ..mesh import estimate_dofs
-from ..params import ParameterError, Sheet
+from ..params import DEFAULT_HMAX, ParameterError, Sheet
 from ..solve import MAX_DOFS, STARTS, CoarseStart, Result, solve
 from ..version import __version__
 from .runner import (
@@ -130,8 +131,9 @@ from .runner import (
 )
 from .runner import read_journal as _read_journal
 
-__all__ = ["grid", "run_sweep", "point_key", "normalize_point", "read_journal",
-           "journal_path", "check_point", "PARAMETERS", "OPTIONS", "COLUMNS"]
+__all__ = ["grid", "run_sweep", "sweep", "point_key", "normalize_point", "read_journal",
+           "journal_path", "check_point", "bistable_column", "PARAMETERS", "OPTIONS", "COLUMNS",
+           "SAME_DEFLECTION"]
 
 #: Input parameters of a point, with their defaults (those of Sheet and solve).
 #: ``length`` has no default.
@@ -167,14 +169,20 @@ _OUTPUTS = {name: kind for name, kind, _ in Result.RECORD_FIELDS
             if name not in PARAMETERS and name not in OPTIONS}
 _KINDS = {**{name: kind for name, kind, _ in Result.RECORD_FIELDS}, "layers": "int",
           "solver": "str", "version": "str", "key": "str", "error": "str",
-          "finished_at": "str"}
+          "finished_at": "str", "bistable": "bool?"}
 
 #: Parameters that fix the mesh: points sharing them share a chunk's build chain.
 _MESH = ("length", "tip_width", "thickness", "hmax", "layers", *OPTIONS)
 _PATHS = ("curvature-first", "gravity-first")
 
 #: Columns of the table, in order.
-COLUMNS = (*PARAMETERS, *OPTIONS, *_OUTPUTS, "version", "key", "error", "finished_at")
+COLUMNS = (*PARAMETERS, *OPTIONS, *_OUTPUTS, "version", "key", "error", "finished_at",
+           "bistable")
+
+#: Two end states whose tip deflections differ by at most this (units of a) are
+#: one state (the two paths' polished end states agree to about 1e-9 where they
+#: reach one; the two states of a bistable sheet differ by tenths).
+SAME_DEFLECTION = 1e-6
 
 
 def _of_kind(kind):
@@ -412,10 +420,58 @@ def read_journal(path, *, key_of=None, required=("length", "deflection", "conver
     return _read_journal(path, key_of=key_of or _sweep_key, required=required)
 
 
+def bistable_column(records) -> list:
+    """``bistable`` of each record: for a sheet (every parameter and option but
+    the path) solved along both load paths, True where the two end states
+    are two distinct stable states (their deflections differ by more than
+    :data:`SAME_DEFLECTION`, both converged and stable), False where they
+    are one state or a distinct one is unstable, None where a path is
+    missing or failed or a stability is unknown.
+
+    Examples
+    --------
+    >>> base = dict(length=1.3, curvature=2.5, converged=True, stable=True)
+    >>> bistable_column([dict(base, path="curvature-first", deflection=0.05),
+    ...                  dict(base, path="gravity-first", deflection=0.57),
+    ...                  dict(base, length=0.5, path="curvature-first", deflection=0.01)])
+    [True, True, None]
+    """
+    records = list(records)
+    sheet = [k for k in (*PARAMETERS, *OPTIONS) if k != "path"]
+
+    def ident(r):
+        return tuple(key_value(r.get(k, OPTIONS.get(k, PARAMETERS.get(k)))) for k in sheet)
+
+    groups = {}
+    for r in records:
+        groups.setdefault(ident(r), {})[r.get("path")] = r
+    out = []
+    for r in records:
+        pair = groups[ident(r)]
+        a, b = pair.get("curvature-first"), pair.get("gravity-first")
+        if a is None or b is None or not (a.get("converged") and b.get("converged")):
+            out.append(None)
+            continue
+        da, db = a.get("deflection"), b.get("deflection")
+        if da is None or db is None or not (math.isfinite(da) and math.isfinite(db)):
+            out.append(None)
+        elif abs(da - db) <= SAME_DEFLECTION:
+            out.append(False)
+        else:
+            st = [x.get("stable") for x in (a, b)]
+            out.append(None if any(v is None or v != v for v in st)
+                       else bool(all(bool(v) for v in st)))
+    return out
+
+
 def _frame(records):
     """A DataFrame with the table's columns and dtypes (options missing from
-    older journal lines are their frozen key defaults: what they were solved with)."""
-    return typed_frame(({**_KEY_DEFAULTS, **r} for r in records), COLUMNS, floats=_of_kind("float"),
+    older journal lines are their frozen key defaults: what they were solved with),
+    and the ``bistable`` column of the pairs of paths among them."""
+    records = [{**_KEY_DEFAULTS, **r} for r in records]
+    for r, b in zip(records, bistable_column(records)):
+        r["bistable"] = b
+    return typed_frame(records, COLUMNS, floats=_of_kind("float"),
                        ints=_of_kind("int"), bools_or_na=_of_kind("bool?"),
                        bools=_of_kind("bool"), strings=_of_kind("str"))
 
@@ -507,3 +563,41 @@ def run_sweep(points, table=None, workers=None, scheduler=None, progress=True, *
     df = _frame(done[k] for k in keys)
     df.attrs["sweep"] = stats
     return df
+
+
+def sweep(sheet: Sheet, table=None, *, path="curvature-first", hmax=DEFAULT_HMAX,
+          workers=None, scheduler=None, progress=True, retry_failed=False, **grid_values):
+    """Solve a family of sheets around ``sheet`` into one resumable table.
+
+    The grid is ``sheet``'s parameters with those given in ``grid_values``
+    replaced by lists of values (any of ``length``, ``tip_width``,
+    ``curvature``, ``thickness``, ``modulus``, ``layers``, ``solver`` and the
+    solve options :data:`OPTIONS`), along ``path`` (``"both"``: both load
+    paths, and the ``bistable`` column says which sheets have two stable
+    states); the rest is :func:`run_sweep` (``table``, ``workers``,
+    ``scheduler``, ``retry_failed``: resumable, on local processes or Dask).
+
+    Examples
+    --------
+    >>> df = sweep(Sheet(length=1.3, curvature=2.5), hmax=0.25, path="both",
+    ...            length=[0.5, 1.3], workers=1, progress=False)
+    >>> df.groupby("length").bistable.first().tolist()
+    [False, True]
+    """
+    if not isinstance(sheet, Sheet):
+        raise ParameterError(f"sheet must be a skfem_sheet.Sheet, got {type(sheet).__name__}")
+    if sheet.planform is not None:
+        raise ParameterError("sweep varies a trapezoid's parameters (length, tip_width, ...): "
+                             "a sheet with a planform cannot be swept here; solve each with "
+                             "solve(), or sweep its length with fold_lengths(..., "
+                             "branches=True)")
+    unknown = [k for k in grid_values if k not in PARAMETERS and k not in OPTIONS]
+    if unknown or "path" in grid_values or "hmax" in grid_values:
+        bad = unknown[0] if unknown else ("path" if "path" in grid_values else "hmax")
+        raise ParameterError(f"{bad} is not a grid parameter of sweep (path and hmax are "
+                             f"its own arguments); allowed: "
+                             f"{', '.join(k for k in (*PARAMETERS, *OPTIONS) if k not in ('path', 'hmax'))}")
+    base = {k: getattr(sheet, k) for k in _SHEET}
+    points = grid(**{**base, **grid_values, "path": path, "hmax": hmax})
+    return run_sweep(points, table, workers=workers, scheduler=scheduler, progress=progress,
+                     retry_failed=retry_failed)
