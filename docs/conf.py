@@ -5,7 +5,6 @@ The notebooks of ``notebooks/`` are copied into the source tree at build time an
 executed (about a minute in all), so their outputs are always those of the code.
 """
 import logging
-import os
 import shutil
 import sys
 from pathlib import Path
@@ -69,7 +68,15 @@ if _NB.exists():
     shutil.rmtree(_NB)
 shutil.copytree(ROOT / "notebooks", _NB, ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
 
-os.environ.setdefault("MPLBACKEND", "Agg")
+# The notebooks' kernels inherit this process's environment: an MPLBACKEND set
+# here (it was "Agg") makes their matplotlib draw off screen, and their plots
+# never reach the pages (0 images on every notebook page).  So this process
+# chooses its own backend without the environment, and the kernels keep
+# Jupyter's inline one; _check_notebook_images fails the build if a notebook
+# page shows no image.
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
 sys.dont_write_bytecode = True
 
 #: Warnings from docstrings in modules that are being reworked by their owners now,
@@ -118,8 +125,22 @@ def _check_pending(app, exception):
         raise RuntimeError(f"docs/conf.py PENDING entries match no warning any more: {unused}")
 
 
+def _check_notebook_images(app, exception):
+    """Every notebook page of an HTML build shows at least one image (its plots)."""
+    if exception is not None or app.builder.format != "html":
+        return
+    pages = sorted((Path(app.outdir) / "notebooks").glob("*.html"))
+    if not pages:
+        raise RuntimeError("the HTML build has no notebook pages (notebooks/*.html)")
+    bare = [p.name for p in pages if "<img" not in p.read_text(encoding="utf-8")]
+    if bare:
+        raise RuntimeError(f"notebook pages without an image: {', '.join(bare)} (their plots "
+                           f"did not reach the build: is MPLBACKEND set for the kernels?)")
+
+
 def setup(app):
     app.connect("autodoc-skip-member", _skip_reexports)
     app.connect("build-finished", _check_pending)
+    app.connect("build-finished", _check_notebook_images)
     for handler in logging.getLogger("sphinx").handlers:
         handler.filters.insert(0, _PendingFilter(app))

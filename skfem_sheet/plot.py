@@ -223,6 +223,8 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     Parameters
     ----------
     result : Result
+        Drawn in units of a, or in millimetres for a sheet made from SI
+        quantities (``result.sheet.si``).
     filename : str, optional
         Write a PNG there.
     ax : matplotlib 3D axes, optional
@@ -257,6 +259,9 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     X, tri, psi = top_surface(result)
     area, _ = _areas_normals(X, tri)
     norm, label = colour_scale(psi, area, scale, vmax)
+    si = getattr(result.sheet, "si", None)
+    if si is not None:  # a sheet made from SI quantities: its axes in millimetres
+        X = X * (1e3 * si.base_width)
     if ax is None:
         fig = plt.figure(figsize=(6.0, 4.6))
         ax = fig.add_subplot(projection="3d")
@@ -270,14 +275,16 @@ def plot_sheet(result, filename=None, ax=None, title=None, vmax=None, colorbar=T
     for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
         set_lim(c - span / 2, c + span / 2)
     ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x/a")
-    ax.set_ylabel("y/a")
-    ax.set_zlabel("z/a")
+    unit = "/a" if si is None else " [mm]"
+    ax.set_xlabel(f"x{unit}")
+    ax.set_ylabel(f"y{unit}")
+    ax.set_zlabel(f"z{unit}")
     ax.view_init(elev=18, azim=-125)
     s = result.sheet
+    d = (f"d/a = {result.deflection:.4f}" if si is None else
+         f"d = {1e3 * si.metres(result.deflection):.4g} mm (d/a = {result.deflection:.4f})")
     ax.set_title(title or (f"L/a={s.length:g}, b/a={s.tip_width:g}, a/R={s.curvature:g}, "
-                           f"{result.path}\nd/a = {result.deflection:.4f}, "
-                           f"hmax {result.hmax:g}"), fontsize=9)
+                           f"{result.path}\n{d}, hmax {result.hmax:g}"), fontsize=9)
     if colorbar:
         sm = cm.ScalarMappable(norm=norm, cmap=cmap)
         extend = "max" if scale == "robust" else "neither"

@@ -62,7 +62,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``skfem-sheet`` parser with every command of :data:`COMMANDS`."""
-    parser = _Parser(prog="skfem-sheet", description=__doc__.split("\n\n")[0])
+    parser = _Parser(prog="skfem-sheet", description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("--version", action="version", version=f"skfem-sheet {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True

@@ -6,10 +6,11 @@ base_width=0.05,length=0.065,tip_width=0.05,thickness=1.5875e-3,radius=0.02,
 youngs_modulus=4.5e5,density=1250`` (``gravity`` optional, default 9.81;
 metres, Pa, kg/m^3, m/s^2; ``radius=inf`` for a flat clamp), mapped through
 ``Sheet.from_si``; the dimensionless parameters it
-gives are printed.  ``--path both`` solves both load paths and says whether
-the two end states differ (is this sheet bistable?), with both deflections
-and their stability; ``--folds`` adds where its length sits against the fold
-lengths (:func:`skfem_sheet.states.solve_both`).
+gives are printed, and the answers come in SI units too.  ``--path both``
+solves both load paths and says whether the two end states differ (is this
+sheet bistable?), with both deflections, their names and stability (in
+Python: skfem_sheet.solve_both); ``--folds`` adds the fold lengths of its
+planform at its curvature and where its length sits against them.
 """
 from __future__ import annotations
 

@@ -50,6 +50,12 @@ def register(subparsers) -> None:
     p.add_argument("--start", default="coarse", choices=tuple(_STARTS),
                    help="coarse (default): each load path on a coarse mesh, finished on "
                         "--hmax; path: the whole load path on --hmax; or both (see solve)")
+    p.add_argument("--coarse-hmax", default=None,
+                   help="mesh sizes of the coarse start's path, e.g. 0.1,0.2 (default: the "
+                        "start's own, 0.1 up to --hmax 0.05)")
+    p.add_argument("--gravities", default="1",
+                   help="gravity as a fraction of the sheet's own weight, e.g. 0.5,1 "
+                        "(default 1)")
     p.add_argument("--solver", default="auto", help=solver_help(plural=True))
     p.add_argument("--table", required=True, help="results table, .csv or .parquet")
     p.add_argument("--workers", type=int, default=None,
@@ -83,7 +89,10 @@ def run(args) -> int:
                   layers=[None] if args.layers is None else parse_values(args.layers, "--layers",
                                                                            int),
                   solver=solvers, refine=parse_values(args.refine, "--refine", int),
-                  symmetric=_SYMMETRIC[args.symmetric], start=_STARTS[args.start])
+                  symmetric=_SYMMETRIC[args.symmetric], start=_STARTS[args.start],
+                  coarse_hmax=([None] if args.coarse_hmax is None
+                               else parse_values(args.coarse_hmax, "--coarse-hmax")),
+                  gravity=parse_values(args.gravities, "--gravities"))
     for p in points:
         check_point(p)
     check_writable("--table", args.table, [".csv", ".parquet"])
@@ -95,6 +104,12 @@ def run(args) -> int:
     print(f"sweep: {info['points']} points, {n_conv} converged, {info['points'] - n_conv} "
           f"failed ({info['new']} computed now, {info['cached']} from earlier runs) "
           f"-> {info['table']}")
+    pairs = rows[rows.bistable.notna()]
+    if len(pairs):
+        n_bi = int(pairs.drop_duplicates(["length", "tip_width", "curvature", "thickness",
+                                          "modulus", "hmax"]).bistable.astype(bool).sum())
+        print(f"  both paths: {n_bi} bistable sheets (two distinct stable states; the "
+              f"'bistable' column)")
     for _, r in rows[~rows.converged].head(5).iterrows():
         print(f"  failed: L/a={r.length:g} b/a={r.tip_width:g} a/R={r.curvature:g} "
               f"{r.path} hmax={r.hmax:g}: {r.message}")
