@@ -120,12 +120,13 @@ class Result:
         Solved as the mirror-symmetric half (see :func:`~skfem_sheet.solve.solve`).
     branch : str
         ``"curvature-dominated"`` or ``"gravity-dominated"``: what the end
-        state is, read from the state itself -- from where it lies on its
-        S-curve d(L) (:mod:`skfem_sheet.analyses.mode`: gravity-dominated
-        where the sag grows with the length ever more slowly, ``dd/dL > 0 >
-        d^2d/dL^2``, curvature-dominated where it grows ever faster or the
-        tip rises; a flat clamp is gravity-dominated, a sheet without
-        gravity curvature-dominated).  One state has one name whichever path
+        state is, read from the state itself (:mod:`skfem_sheet.analyses.mode`):
+        gravity-dominated where its transverse curvature relaxes inside the
+        sheet or its sag grows with the length ever more slowly along its
+        S-curve d(L) (``dd/dL > 0 > d^2d/dL^2``), curvature-dominated where
+        the curvature persists to the tip and the sag grows ever faster or
+        the tip rises; a flat clamp is gravity-dominated, a sheet without
+        gravity curvature-dominated.  One state has one name whichever path
         reached it, and the two stable states of a bistable sheet have the
         two names.  The load path's history is ``snaps``.  (A result that
         did not reach full load is named by its history: its path's own
@@ -411,8 +412,7 @@ class Result:
         out.append(f"tip deflection d/a = {self.deflection:.6f}{mm}  ({status})")
         if self.converged:
             stable = {True: "stable", False: "unstable", None: "stability unknown"}[self.stable]
-            why = (f" ({self.mode.reason} with the length)" if self.mode is not None
-                   and self.mode.reason.startswith("the ") else "")
+            why = f" ({self.mode.reason})" if self.mode is not None else ""
             out.append(f"  {self.branch}{why}, {stable}")
         for snap in self.snaps:
             out.append(f"  snapped in the {snap.phase} phase at the fold at {snap.load:.6g} "

@@ -3,47 +3,59 @@
 The paper's two modes (its Fig. 3): in the *curvature-dominated* mode the
 clamp's transverse curvature persists along the sheet and holds it aloft; in
 the *gravity-dominated* mode the curvature relaxes near the base and the
-sheet beyond it, flat, bends down under its weight.  Which one a sheet is in
-is decided by where its state lies on its *S-curve*: the curve ``d(L)`` of
-the equilibria of its planform, curvature and material as the length
-varies (:mod:`skfem_sheet.bistability`).
+sheet beyond it, flat, bends down under its weight ("which mode is selected
+depends on the length of the sheet relative to a persistence length, the
+distance along the sheet over which the transverse curvature relaxes").
+Two signs of the second mode are read from the state, and a state is
+gravity-dominated if it shows either:
 
-The criterion: the bend of the S-curve at the state
----------------------------------------------------
-Along the S-curve the sag first grows ever faster with the length -- the
-curvature-held sheet is a stiff beam whose free part's weight and lever grow
-together (the paper's cantilever estimate ``d ~ (L - L_p)^4``), or the tip
-even rises as the curved sheet lengthens -- and then ever more slowly, as the
-drooped sheet hangs from the relaxed region near the base (its slope
-``dd/dL`` falling towards 1, each added length hanging almost straight down).
-The transition between the two is the S-curve's inflection, the steepest
-point of ``d(L)``; where the sheet is bistable, the S-curve turns back
-between its folds and the whole unstable middle branch lies between the two
-regimes.  So, at a state with slope ``d' = dd/dL`` and bend ``d'' =
-d^2d/dL^2`` along its S-curve::
+1. **The transverse curvature relaxes inside the sheet.**  The lateral
+   curvature ``c(s)`` of the mid-surface (the quadratic fit of its
+   deflection across each section,
+   :meth:`~skfem_sheet.analyses.midsurface.Midsurface.lateral_curvature`)
+   changes sign somewhere over ``0 <= s <= 0.9 L`` (the last tenth left
+   out, where a tapered sheet's sections are too narrow to fit): the
+   paper's persistence length ``L_p``, where ``c`` vanishes, lies inside
+   the sheet, and beyond it the sheet is flat (its small curvature of the
+   other sign is the anticlastic response of a bent strip).  Along the
+   curvature-dominated branch ``c`` keeps the clamp's sign to the tip.
+2. **The sag decelerates with the length.**  On the state's *S-curve*, the
+   curve ``d(L)`` of the equilibria of its planform, curvature and material
+   as the length varies (:mod:`skfem_sheet.bistability`), the slope
+   ``d' = dd/dL`` is positive and the bend ``d'' = d^2d/dL^2`` negative:
+   the sheet hangs, each added length hanging further down but ever closer
+   to straight down.  Held aloft by its curvature, a sheet is a stiff beam
+   whose free part's weight and lever grow together, so its sag accelerates
+   (the paper's cantilever estimate ``d ~ (L - L_p)^4``), or the tip even
+   rises as the curved sheet lengthens (``d' < 0``).
 
-    gravity-dominated    if  d' > 0  and  d'' < 0   (the sag decelerating),
-    curvature-dominated  otherwise                   (accelerating, or the tip rising).
+Otherwise the state is curvature-dominated.  Each sign alone misses states
+the other catches: a weakly curved clamp (a/R about 0.4) lets a sheet hang
+while the little curvature it has never changes sign (2.), and a long
+hanging sheet on a strongly curved clamp (a/R 3.5 to 5) can have a sag that
+accelerates again far out on its branch (1.); on the stress set both
+together name every hanging state gravity-dominated
+(``benchmarks/labels.py``, record in
+``benchmarks/results/robustness/labels_n100_seed1_hmax0.1.txt``).
 
-Why a bistable pair always gets two names near its folds: at a fold ``L*``
-the S-curve is a parabola in the state, ``L - L* ~ -(d - d*)^2``, so on the
-stable branch ending at the standout length ``L1*`` (a maximum of ``L``)
-``d'' -> +infinity`` and on the one ending at the pop-up length ``L0*`` (a
-minimum) ``d'' -> -infinity`` (with ``d' -> +infinity`` on both): the
-curvature-dominated branch is the one that ends at ``L1*``, the
-gravity-dominated one the one that ends at ``L0*``, as the paper names them.
-Near the cusp, where the bistable window closes, the whole window is near
-its folds.  Where the sheet is not bistable, the name changes at the
-inflection, the single transition length the figures mark
-(:func:`skfem_sheet.studies.foldmap.transition_length`, the middle of the
-steepest interval of a row's ``d(L)``).  The name depends on the state
-only: one state gets one name whichever load path reached it, and the load
-path's history is kept apart (``Result.snaps``).
+Why a bistable pair gets two names: at a fold ``L*`` the S-curve is a
+parabola in the state, ``L - L* ~ -(d - d*)^2``, so on the stable branch
+ending at the pop-up length ``L0*`` (a minimum of ``L``) ``d'' -> -infinity``
+with ``d' -> +infinity``: gravity-dominated (2.); on the one ending at the
+standout length ``L1*`` (a maximum) ``d'' -> +infinity``, and the curvature
+persists along the aloft sheet: curvature-dominated.  The names change
+where the curvature first relaxes or the S-curve has its inflection (its
+steepest point, the transition length the figures mark for sheets that are
+not bistable, :func:`skfem_sheet.studies.foldmap.transition_length`); for a
+bistable S-curve both lie on its unstable middle branch.  The name depends
+on the state only: one state gets one name whichever load path reached it,
+and the load path's history is kept apart (``Result.snaps``).
 
 Two limits are named by what is missing: a flat clamp (``a/R = 0``) has no
-transverse curvature to dominate -- gravity-dominated (as the figures
-have it); a sheet without gravity (load factor 0) has no weight to dominate
--- curvature-dominated.
+transverse curvature to dominate -- gravity-dominated (as the figures have
+it); a sheet without gravity (load factor 0) has no weight to dominate --
+curvature-dominated.  A planform with bites has no single section to fit
+across: only the S-curve's sign (2.) is read.
 
 How ``d'`` and ``d''`` are computed: at the equilibrium ``R(w(L), L) = 0``
 on the mesh stretched in L (the family of lengths of
@@ -52,16 +64,16 @@ on the mesh stretched in L (the family of lengths of
 the residual along the tangent ``(w', 1)`` in ``(w, L)`` (a central second
 difference of three residuals on the stretched meshes); ``d' = T(w')`` and
 ``d'' = T(w'')`` with ``T`` the tip deflection (linear in the state).  Two
-back-substitutions with the solve's factorisation and four residuals: a
-small fraction of one Newton iteration.
+back-substitutions with the solve's factorisation, four residuals and one
+evaluation of the mid-surface at 19 x 21 points: a few per cent of a solve.
 
 Examples
 --------
 >>> from skfem_sheet import Sheet, solve
 >>> r = solve(Sheet(length=1.3, curvature=2.5), "gravity-first", hmax=0.2)
 >>> m = mode_of(r.problem, r.w, 1.0)
->>> m.name, m.slope > 0 > m.bend
-('gravity-dominated', True)
+>>> m.name, m.slope > 0 > m.bend, m.relaxed
+('gravity-dominated', True, True)
 """
 from __future__ import annotations
 
@@ -72,16 +84,23 @@ import numpy as np
 
 from ..linalg import LinearSolverError, make_linear_solver
 from ..params import ParameterError
+from .midsurface import midsurface
 from .observables import tip_deflection
 from .sensitivity import parameter_derivatives, scaled_problem
 
-__all__ = ["CURVATURE_DOMINATED", "GRAVITY_DOMINATED", "MODES", "Mode", "mode_of",
-           "name_of_bend"]
+__all__ = ["CURVATURE_DOMINATED", "GRAVITY_DOMINATED", "MODES", "Mode", "PERSISTENCE_SPAN",
+           "mode_of", "name_of", "transverse_curvature"]
 
 CURVATURE_DOMINATED = "curvature-dominated"
 GRAVITY_DOMINATED = "gravity-dominated"
 #: The two names, in the order of the load paths that select them.
 MODES = (CURVATURE_DOMINATED, GRAVITY_DOMINATED)
+
+#: The sections over which the transverse curvature is read: 19 over
+#: ``0 <= s <= PERSISTENCE_SPAN L`` (a tapered sheet's last sections are too
+#: narrow for a fit across), 21 points across each.
+PERSISTENCE_SPAN = 0.9
+_SECTIONS, _ACROSS = 19, 21
 
 #: Relative step in L of the second difference of the residual (and at most
 #: this in a of the state's step along ``w'``): truncation ``O(e^2)`` and
@@ -101,31 +120,60 @@ class Mode:
         ``dd/dL`` along the state's S-curve (NaN where not computed).
     bend : float
         ``d^2d/dL^2`` along it (NaN where not computed).
+    relaxed : bool or None
+        The transverse curvature changes sign inside the sheet (None where
+        not read: a flat clamp, a planform with bites).
+    curvature_min : float
+        The smallest lateral curvature over the sections, relative to the
+        clamp's ``a/R`` (NaN where not read).
     reason : str
-        In words: ``"the sag decelerates"``, ``"the sag accelerates"``,
-        ``"the tip rises"``, ``"a flat clamp"``, ``"no gravity"``.
+        In words: ``"the curvature relaxes inside the sheet"``, ``"the sag
+        decelerates"``, ``"the sag accelerates"``, ``"the tip rises"``,
+        ``"a flat clamp"``, ``"no gravity"``.
     """
 
     name: str
     slope: float = math.nan
     bend: float = math.nan
+    relaxed: object = None
+    curvature_min: float = math.nan
     reason: str = ""
 
     def to_json(self) -> dict:
         return {"name": self.name, "slope": self.slope, "bend": self.bend,
+                "relaxed": self.relaxed, "curvature_min": self.curvature_min,
                 "reason": self.reason}
 
 
-def name_of_bend(slope: float, bend: float) -> str:
-    """The name from the S-curve's slope and bend at a state (the criterion
-    of the module docstring).
+def name_of(slope: float, bend: float, relaxed=None) -> str:
+    """The name from the state's two signs (the criterion of the module
+    docstring): the S-curve's slope and bend there, and whether the
+    transverse curvature relaxes inside the sheet.
 
     Examples
     --------
-    >>> name_of_bend(1.2, -0.3), name_of_bend(0.4, 2.0), name_of_bend(-0.1, -0.2)
+    >>> name_of(1.2, -0.3), name_of(0.4, 2.0), name_of(-0.1, -0.2)
     ('gravity-dominated', 'curvature-dominated', 'curvature-dominated')
+    >>> name_of(1.2, 0.3, relaxed=True)
+    'gravity-dominated'
     """
-    return GRAVITY_DOMINATED if (slope > 0 and bend < 0) else CURVATURE_DOMINATED
+    return GRAVITY_DOMINATED if (relaxed or (slope > 0 and bend < 0)) else CURVATURE_DOMINATED
+
+
+def transverse_curvature(problem, w):
+    """``(relaxed, min c/(a/R))``: whether the lateral curvature of the
+    mid-surface changes sign over ``0 <= s <= PERSISTENCE_SPAN L``, and its
+    smallest value there relative to the clamp's; ``(None, nan)`` for a flat
+    clamp or a planform with bites (no single section across)."""
+    kappa = problem.sheet.curvature
+    if kappa == 0.0:
+        return None, math.nan
+    s = np.linspace(0.0, PERSISTENCE_SPAN * float(problem.length), _SECTIONS)
+    try:
+        c = midsurface(problem, w, s, n_across=_ACROSS).lateral_curvature() / kappa
+    except ParameterError:
+        return None, math.nan
+    return bool(np.any(c < 0)), float(c.min())
 
 
 def _solve(problem, w, B, linear):
@@ -199,7 +247,12 @@ def mode_of(problem, w, gravity: float = 1.0, linear=None) -> Mode:
         return (tip_deflection(problem, w + h * x) - tip_deflection(problem, w - h * x)) / (2 * h)
 
     slope, bend = along(dw), along(dw2)
-    name = name_of_bend(slope, bend)
-    reason = ("the sag decelerates" if name == GRAVITY_DOMINATED
-              else "the tip rises" if slope <= 0 else "the sag accelerates")
-    return Mode(name, float(slope), float(bend), reason)
+    relaxed, c_min = transverse_curvature(problem, w)
+    name = name_of(slope, bend, relaxed)
+    if name == GRAVITY_DOMINATED:
+        reason = ("the curvature relaxes inside the sheet" if relaxed
+                  else "the sag decelerates with the length")
+    else:
+        reason = "the tip rises with the length" if slope <= 0 else \
+            "the sag accelerates with the length"
+    return Mode(name, float(slope), float(bend), relaxed, c_min, reason)

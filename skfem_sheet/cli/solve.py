@@ -283,8 +283,7 @@ def run(args) -> int:
           + f"  ({status})")
     if result.converged:
         stable = {True: "stable", False: "unstable", None: "stability unknown"}[result.stable]
-        why = f" ({result.mode.reason} with the length)" if result.mode is not None and \
-            result.mode.reason.startswith("the ") else ""
+        why = f" ({result.mode.reason})" if result.mode is not None else ""
         print(f"  {result.branch}{why}, {stable}; --path both tells whether the sheet is "
               f"bistable")
     print(f"  {result.path}, {result.dofs} dofs{'' if result.symmetric else ' (whole sheet)'}, "
