@@ -947,8 +947,9 @@ class FoldLengths:
         The two continuations (curvature-first from the short end,
         gravity-first from the long end; one and the same where the
         curvature-dominated branch reaches the long end without a fold and
-        the gravity-first state there is its end, and at a/R = 0), on
-        ``branch_hmax``.
+        the gravity-first state there is its end, and at a/R = 0): their
+        points on ``branch_hmax``, their ``fold`` (and ``fold_deflection``)
+        the located one on ``hmax``.
     trace_hmax : float
         The mesh the branches were traced on and their folds first located
         (:func:`trace_mesh`).
@@ -1430,8 +1431,10 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
             notes.append(f"the {kind} fold found at L/a {b.fold:.5f} on hmax {h_trace:g} was "
                          f"not located on hmax {hmax:g}: {why}")
         located[kind] = fold
-    up, down = up.without_states(), down.without_states() if down is not up else None
-    down = up if down is None else down
+    # the branches end at their folds as located on hmax (their points are the trace's)
+    one = down is up
+    up = _ending_at(up.without_states(), located.get("standout"))
+    down = up if one else _ending_at(down.without_states(), located.get("popup"))
     if fine_branches and h_trace != hmax:
         up, down, n = _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides,
                                      located, up, down, on_point, progress, flat, solver)
@@ -1441,6 +1444,14 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
                        "; ".join(notes), int(fine_work if h_trace != hmax
                                              else fine_work + trace_work),
                        int(trace_work if h_trace != hmax else 0), time.perf_counter() - t0)
+
+
+def _ending_at(branch, fold):
+    """``branch`` with its fold the located ``fold`` (its length and deflection on
+    the results' mesh), or as it is without one."""
+    if fold is None:
+        return branch
+    return replace(branch, fold=fold.length, fold_deflection=fold.deflection)
 
 
 #: A branch followed on the fine mesh up to its located fold stops this far

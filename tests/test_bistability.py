@@ -59,11 +59,13 @@ def test_rectangle_is_bistable_and_its_folds_are_located(coarse_rectangle):
         assert abs(fold.mesh_length - fold.length) <= MESH_LENGTH_GRID + 1e-9
         assert abs(fold.mesh_length / MESH_LENGTH_GRID - round(fold.mesh_length
                                                                / MESH_LENGTH_GRID)) < 1e-9
-    # each branch ends where a step failed, at a fold located within that step
-    for b in (r.increasing, r.decreasing):
-        assert b.fold is not None and b.reason.startswith("fold at")
+    # each branch ends at its fold, located on the results' mesh (its points are the
+    # trace's, on meshes made elsewhere: the fold moves by their difference, about
+    # 0.02 a at hmax 0.2)
+    for b, fold in ((r.increasing, r.standout), (r.decreasing, r.popup)):
+        assert b.fold == fold.length and b.fold_deflection == fold.deflection
         lo, hi = sorted(b.bracket)
-        assert lo - 1e-9 <= b.fold <= hi + (hi - lo)      # within the failed step (x 2)
+        assert lo - 0.05 <= b.fold <= hi + 0.05
         assert all(p.stable is not False for p in b.points)
     assert r.increasing.lengths.max() < r.standout.length + 0.02
     assert r.decreasing.lengths.min() > r.popup.length - 0.02
@@ -71,6 +73,23 @@ def test_rectangle_is_bistable_and_its_folds_are_located(coarse_rectangle):
     assert r.increasing.deflections.max() < 0.2 < r.decreasing.deflections.min()
     assert r.standout.deflection < r.popup.deflection
     assert r.position.where == "between" and r.position.states == 2
+
+
+def test_a_branch_ends_at_the_fold_located_within_its_failed_step():
+    """follow_length: the step past the standout fold fails, and the fold is
+    located along the branch from the last equilibrium, inside that step; one
+    eigenvalue crosses zero there."""
+    from skfem_sheet.bistability import follow_length
+    from skfem_sheet.engine.fold import inertia_crossing
+
+    b = follow_length(Sheet(length=1.2, curvature=2.5), 1.6, hmax=0.2, step=0.1)
+    assert b.fold is not None and b.fold_point is not None
+    last, tried = b.bracket
+    assert last == b.lengths.max() and last < b.fold <= tried + (tried - last)
+    f = b.fold_point
+    assert f.side == -1     # the branch lies below its end: a standout fold
+    n_minus, n_plus = inertia_crossing(b.problem, f.u, f.p, f.v, 1e-4)
+    assert abs(n_plus - n_minus) == 1
 
 
 def test_s_curve_and_fold_lengths_locate_the_same_folds_on_one_mesh(coarse_rectangle,
