@@ -2,6 +2,7 @@
 
     python benchmarks/labels.py [--n 100] [--seed 1] [--hmax 0.1] [--out labels.jsonl]
         [--start coarse|path] [--shard K:N]
+    python benchmarks/labels.py --windows [--hmax 0.1] [--out windows.jsonl]
 
 The solves of ``benchmarks/stress.py`` (the same seeded sample and corners,
 both load paths, at ``min(hmax, L/2)``), each recorded with its name
@@ -24,6 +25,12 @@ Then, per sheet (both paths):
 
 The report prints every violation and the counts (exit 1 if any), and the
 agreement of the names with the transverse-curvature picture.
+
+``--windows``: the stress set holds few bistable sheets, so these are sought
+out: for each of :data:`FAMILIES` (planform, curvature, material) the fold
+lengths on the mesh (``fold_lengths``), then both paths at lengths 10%, 50%
+and 90% across its window ``L0* < L < L1*``; every such pair must be two
+states with two names.
 """
 import sys
 
@@ -133,15 +140,76 @@ def report(recs) -> int:
     return 1 if bad else 0
 
 
+#: Families with a bistable window: (tip width, curvature, thickness, modulus), the
+#: rectangle at the paper's curvatures, tapered towards the cusp, a weak clamp near
+#: the rectangle's cusp, a thinner and a softer sheet.
+FAMILIES = [(1.0, 2.5, 0.03, 735.0), (1.0, 5.0, 0.03, 735.0), (0.8, 2.5, 0.03, 735.0),
+            (0.7, 2.5, 0.03, 735.0), (1.0, 1.2, 0.03, 735.0), (0.9, 4.0, 0.03, 735.0),
+            (1.0, 2.5, 0.02, 735.0), (1.0, 2.5, 0.03, 400.0)]
+
+
+def windows(hmax, out):
+    """Both paths across the bistable window of each family: two states, two names."""
+    import json
+
+    from skfem_sheet import Sheet, fold_lengths, solve
+
+    done = {}
+    try:
+        with open(out) as fh:
+            for line in fh:
+                rec = json.loads(line)
+                done[rec["key"]] = rec
+    except FileNotFoundError:
+        pass
+    bad, n = [], 0
+    for b, k, h, E in FAMILIES:
+        sheet = Sheet(length=1.0, tip_width=b, curvature=k, thickness=h, modulus=E)
+        key = json.dumps([b, k, h, E])
+        if key not in done:
+            f = fold_lengths(sheet, hmax=hmax)
+            rec = dict(key=key, L0=f.popup_length, L1=f.standout_length, bistable=f.bistable,
+                       pairs=[])
+            if f.bistable:
+                for x in (0.1, 0.5, 0.9):
+                    L = f.popup_length + x * f.width
+                    rs = [solve(sheet.replace(length=L), path=p, hmax=hmax)
+                          for p in ("curvature-first", "gravity-first")]
+                    rec["pairs"].append(dict(length=L, deflection=[r.deflection for r in rs],
+                                             stable=[r.stable for r in rs],
+                                             branch=[r.branch for r in rs]))
+            done[key] = rec
+            with open(out, "a") as fh:
+                fh.write(json.dumps(rec) + "\n")
+        rec = done[key]
+        print(f"b/a {b:g}, a/R {k:g}, h/a {h:g}, E {E:g}: L0* {rec['L0']:.5f}, "
+              f"L1* {rec['L1']:.5f}", flush=True)
+        for q in rec["pairs"]:
+            n += 1
+            (d1, d2), names = q["deflection"], q["branch"]
+            two = abs(d1 - d2) > SAME and all(q["stable"])
+            ok = two and names[0] != names[1]
+            print(f"  L/a {q['length']:.5f}: d/a {d1:.4f} / {d2:.4f}, {names[0]} / {names[1]}"
+                  + ("" if ok else "   <-- VIOLATION"))
+            if not ok:
+                bad.append((b, k, h, E, q["length"]))
+    print(f"{n} pairs inside bistable windows, violations: {len(bad)}")
+    return 1 if bad else 0
+
+
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--hmax", type=float, default=0.1)
     ap.add_argument("--out", default="labels.jsonl")
+    ap.add_argument("--windows", action="store_true",
+                    help="instead: both paths across the bistable windows of FAMILIES")
     add_shard_option(ap)
     add_start_option(ap)
     args = ap.parse_args(argv)
+    if args.windows:
+        return windows(args.hmax, args.out)
     shard = parse_shard(args.shard)
     todo = both_paths(sample(args.n, args.seed))
     options = start_options(args)

@@ -588,11 +588,14 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, j
                 f"(d = {d_here:.4g} instead of {points[-1].deflection:.4g})")
         return moved
 
+    # a step grows only after an easy correction (at most 3 linearisations): one
+    # that needed more came near the edge of Newton's basin, and the longer step
+    # after it would fail (on a drooped, hanging branch, one step in three)
     b = natural(counter, out.w[P.free], p0, 0, stop, step=step, min_step=min_step,
                 tol=_tolerances(guard, pair_contraction=True),
                 locate=(_branch_end(1.0 if stop >= p0[0] else -1.0, 4 * step) if locate
                         else False),
-                inertia_change=False, grow_after=None, check=check, before_step=before_step,
+                inertia_change=False, grow_after=3, check=check, before_step=before_step,
                 on_step=on_step, keep_states=False, linearization=_chord_linearization,
                 progress=progress, start=(out.w[P.free], P.held(out.w[P.free], p0)),
                 guide=_Guide(guide, P) if guide and name == "L" else None)
