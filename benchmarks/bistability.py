@@ -70,12 +70,13 @@ def main(argv=None):
     def run(b, k):
         key = f"b={b:g},k={k:g}"
         if key not in folds:
-            r = fold_lengths(b, k, lengths=(lo, hi), hmax=args.hmax, progress=True)
+            r = fold_lengths(Sheet(length=lo, tip_width=b, curvature=k), hmax=args.hmax,
+                             lengths=(lo, hi), progress=True)
             folds[key] = {k2: v for k2, v in r.summary().items()}
             _save(args.json, data)
         return folds[key]
 
-    print(f"hmax = {args.hmax:g}, L/a searched in [{lo:g}, {hi:g}], folds to +-0.005")
+    print(f"hmax = {args.hmax:g}, L/a searched in [{lo:g}, {hi:g}], folds located to 1e-6")
     head = f"{'case':12s} {'a/R':>5s} {'L0* (pop-up)':>13s} {'L1* (standout)':>15s} {'bistable':>8s} {'newton':>7s} {'wall s':>7s}"
     print(head)
     print("-" * len(head))

@@ -44,6 +44,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from skfem_sheet import Sheet
 from skfem_sheet.bistability import fold_lengths
 from skfem_sheet.figures.data import fold_curve_points, fold_curve_table
 from skfem_sheet.foldcurve import trace_fold_curve
@@ -109,7 +110,8 @@ def isolated_curve_case(curvature, hmax, coarse_hmax, fine_points):
 
 def pointwise_case(curvature, hmax):
     t0 = time.perf_counter()
-    r = fold_lengths(1.0, curvature, lengths=(0.5, 3.0), hmax=hmax, step=0.1, tol=0.005)
+    r = fold_lengths(Sheet(length=0.5, curvature=curvature), hmax=hmax, lengths=(0.5, 3.0),
+                     step=0.1)
     wall = time.perf_counter() - t0
     its = r.increasing.newton_iterations + (r.decreasing.newton_iterations
                                             if r.decreasing is not r.increasing else 0)

@@ -47,6 +47,7 @@ Four parts, each on sheets that no test uses:
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sys
@@ -203,12 +204,17 @@ def _relocate(P, fold, p):
 
 def folds_part(hmax, rel):
     t0 = time.perf_counter()
-    folds = locate_folds(hmax=hmax, **FOLD_SHEET)
+    folds = locate_folds(Sheet(length=1.3, **FOLD_SHEET), hmax=hmax)
     located_s = time.perf_counter() - t0
     rows = []
     for kind, fs in folds.items():
-        P, fold = fs.problem, fs.fold
-        Lm, bm = P.mesh_parameters
+        # the fold was located in L on its mesh; the same mesh mapped in (L, b, a/R)
+        # (a SheetFoldProblem made at the same length: the same mesh, the same dofs)
+        # moves it in the tip width and the curvature
+        Lm, bm = fs.problem.mesh_parameters
+        P = SheetFoldProblem(FOLD_SHEET["curvature"], hmax, Lm, bm)
+        fold = dataclasses.replace(fs.fold, p=np.array([fs.value, FOLD_SHEET["tip_width"],
+                                                        FOLD_SHEET["curvature"]]))
         fd = {}
         for name, index in (("tip_width", 1), ("curvature", 2)):
             step = rel * float(fold.p[index])
