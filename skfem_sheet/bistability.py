@@ -83,7 +83,7 @@ from .solve import build_problem
 from .starts import CoarseStart, Job
 from .version import __version__
 
-__all__ = ["BranchPoint", "Branch", "Fold", "FoldLengths", "FoldPosition", "Bistability",
+__all__ = ["BranchPoint", "Branch", "Fold", "FoldLengths", "FoldPosition",
            "SCurve", "FOLD_TOL", "TRACE_HMAX", "FOLD_CURVE_LEVELS", "FOLD_CURVE_POINTS",
            "fold_curve", "stability", "transfer", "follow_length",
            "follow_curvature", "fold_lengths", "fold_lengths_of", "fold_position", "fold_range",
@@ -1179,9 +1179,15 @@ class FoldLengths:
                 "wall_time_s": self.wall_time_s, "si": self.in_si(), "version": __version__}
 
 
-#: The old name of :class:`FoldLengths` (before the folds were located and
-#: the function took a Sheet); kept one release.
-Bistability = FoldLengths
+def __getattr__(name):
+    """``Bistability``: the old name of :class:`FoldLengths` (before the folds
+    were located and the function took a Sheet), with a DeprecationWarning;
+    kept one release."""
+    if name == "Bistability":
+        warnings.warn("skfem_sheet.bistability.Bistability is deprecated: it is FoldLengths",
+                      DeprecationWarning, stacklevel=2)
+        return FoldLengths
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _mesh_length(L: float) -> float:
