@@ -52,7 +52,7 @@ POISSON_RATIO = 0.5
 DEFAULT_HMAX = 0.03
 #: The documented quick mesh size: a first look, the tests, the notebooks
 #: (about 1/10 of the unknowns of :data:`DEFAULT_HMAX`; deflections within a
-#: few per cent, fold lengths within about 0.01 a of it).
+#: few per cent, fold lengths 0.004 to 0.007 a longer: docs/guide/accuracy.md).
 QUICK_HMAX = 0.1
 
 #: Clamp curvatures a/R must stay below this: the clamped base (width 1) is
