@@ -6,7 +6,8 @@
 For the rectangle at each a/R: ``fold_lengths(Sheet(length=1.3, curvature=a/R), hmax)``
 (the branches traced on hmax 0.1, each end located on a mesh of size hmax made next
 to it), timed (wall, peak memory of the process so far, factorisations on each
-mesh); with ``--curve`` also the fold curve in (L, b/a) at that a/R
+mesh; and in solves: the wall of one solve of the same sheet on hmax, timed
+before and after it, for a machine whose load changes); with ``--curve`` also the fold curve in (L, b/a) at that a/R
 (``fold_curve``, coarse to fine as the fold map traces it), its ends at b/a 1 the
 reference.  The two codes make their fine meshes at different lengths (the fold
 curve one mesh for all the points it refines, at their median length), so the
@@ -19,7 +20,7 @@ import resource
 import sys
 import time
 
-from skfem_sheet import Sheet, fold_curve, fold_lengths
+from skfem_sheet import Sheet, fold_curve, fold_lengths, solve
 from skfem_sheet.bistability import locate_on_mesh
 
 from harness import parser
@@ -29,12 +30,24 @@ def _peak_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _reference_solve(sheet, hmax):
+    """The wall time of one solve of ``sheet`` on ``hmax`` (curvature-first, default
+    start): the yardstick of a loaded machine, timed beside each fold_lengths."""
+    t0 = time.perf_counter()
+    solve(sheet, hmax=hmax)
+    return time.perf_counter() - t0
+
+
 def one(curvature, hmax, curve):
     sheet = Sheet(length=1.3, curvature=curvature)
+    before = _reference_solve(sheet, hmax)
     t0 = time.perf_counter()
     f = fold_lengths(sheet, hmax=hmax, keep_states=True)
     wall = time.perf_counter() - t0
+    after = _reference_solve(sheet, hmax)
+    solve_s = 0.5 * (before + after)
     row = dict(curvature=curvature, hmax=hmax, wall_s=wall, peak_mb=_peak_mb(),
+               reference_solve_s=solve_s, in_solves=wall / solve_s,
                popup_length=f.popup_length, standout_length=f.standout_length,
                popup_mesh=f.popup.mesh_length if f.popup else None,
                standout_mesh=f.standout.mesh_length if f.standout else None,
@@ -44,7 +57,8 @@ def one(curvature, hmax, curve):
     print(f"a/R {curvature:g}: L0* {f.popup_length:.6f} (mesh {row['popup_mesh']}), L1* "
           f"{f.standout_length:.6f} (mesh {row['standout_mesh']}), {wall:.1f} s, "
           f"{f.factorizations} factorisations on hmax {hmax:g} + {f.trace_factorizations} on "
-          f"{f.trace_hmax:g}, crossings {row['crossings']}", flush=True)
+          f"{f.trace_hmax:g}, crossings {row['crossings']}; one solve {solve_s:.1f} s "
+          f"beside it: {wall / solve_s:.1f} solves", flush=True)
     if curve:
         t0 = time.perf_counter()
         c = fold_curve(sheet, hmax=hmax)

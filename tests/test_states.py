@@ -290,3 +290,29 @@ def test_rom_si(model, capsys):
         assert "a/R = 2.5 is left out" in out
     assert main(["rom", model, "--si", SI, "--length", "1"]) == 2
     assert "--si cannot be combined with --length" in capsys.readouterr().err
+
+
+def test_si_to_the_end(tmp_path, capsys):
+    """A sheet given in SI: the --json of --path both has the dimensionless keys as before
+    and the SI ones beside them (the deflections in metres), the VTU is in metres."""
+    import meshio
+
+    js, vtu = tmp_path / "both.json", tmp_path / "s.vtu"
+    assert main(["solve", "--si", SI, "--path", "both", "--hmax", "0.25", "--quiet", "--json",
+                 str(js), "--vtu", str(vtu)]) == 0
+    data = json.loads(js.read_text())
+    a = 0.05
+    for path in ("curvature-first", "gravity-first"):
+        d = data["deflections"][path]
+        assert data["si"]["deflections_m"][path] == pytest.approx(a * d, rel=1e-12)
+    up = data["curvature_first"]
+    assert up["si"]["deflection_m"] == pytest.approx(a * up["deflection"], rel=1e-12)
+    assert up["si"]["youngs_modulus_Pa"] == pytest.approx(4.5e5)
+    assert up["params"]["si"] == {"base_width": 0.05, "density": 1250.0, "gravity": 9.81}
+    assert data["si"]["separation_m"] == pytest.approx(a * data["separation"], rel=1e-12)
+    m = meshio.read(tmp_path / "s.gravity-first.vtu")
+    # the reference sheet spans 0 <= x <= L = 65 mm, |y| <= a/2 = 25 mm
+    assert m.points[:, 0].max() == pytest.approx(0.065, rel=1e-9)
+    assert m.points[:, 1].max() == pytest.approx(0.025, rel=1e-9)
+    text = vtu.with_name("s.gravity-first.vtu").read_text(errors="ignore")
+    assert 'Name="coordinates_in_metres"' in text and 'Name="base_width_m"' in text
