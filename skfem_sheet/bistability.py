@@ -1210,7 +1210,10 @@ def locate_on_mesh(sheet: Sheet, point, problem, kind: str, hmax: float, *, laye
     (:func:`~skfem_sheet.engine.fold_on_branch`: every iterate an
     equilibrium on a section of the null vector, Newton on ``dL/dc = 0``,
     the load to :data:`FOLD_TOL`), with the negative eigenvalue counts on
-    both sides checked (two factorisations); where that does not converge,
+    both sides checked (two factorisations; where they do not differ by
+    one, the fold is located once more from there, a thousand times closer,
+    and checked again: at a flat fold the critical eigenvalue changes slowly
+    along the null vector); where that does not converge,
     by Newton on the minimally augmented system from the carried state, or
     from it settled on its section first
     (:func:`~skfem_sheet.foldcurve.refine.settled_fold`).  A fold that comes
@@ -1250,6 +1253,16 @@ def locate_on_mesh(sheet: Sheet, point, problem, kind: str, hmax: float, *, laye
                 fold, why = None, f"{why}; the fold system: the other kind of fold"
             else:
                 why = f"{why}; the fold system: {res.reason}"
+        if fold is not None and fold.crossing is not None and \
+                abs(int(fold.crossing[1]) - int(fold.crossing[0])) != 1:
+            # the crossing not seen along the null vector: at a flat fold (a small
+            # fold coefficient) the critical eigenvalue changes slowly along it, and
+            # the located state, within the tolerance of the fold, is not near enough;
+            # located once more from there, closer, and checked again
+            closer, _ = fold_on_branch(counter, fold.u, fold.p, "L", fold.v, tol=TOLERANCES,
+                                       ptol=FOLD_TOL * 1e-3, check_inertia=True)
+            if closer is not None and int(closer.side) == side:
+                fold = closer
         total += counter.stats().factorizations
         if fold is None:
             return None, total, why
@@ -1439,6 +1452,9 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
         if fold is None:
             notes.append(f"the {kind} fold found at L/a {b.fold:.5f} on hmax {h_trace:g} was "
                          f"not located on hmax {hmax:g}: {why}")
+        elif fold.confirmed is False:
+            notes.append(f"at the {kind} fold (L/a {fold.length:.5f}) the negative eigenvalue "
+                         f"counts on both sides, {fold.crossing}, do not differ by one")
         located[kind] = fold
     # the branches end at their folds as located on hmax (their points are the trace's)
     one = down is up
