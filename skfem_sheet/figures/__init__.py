@@ -42,7 +42,7 @@ curves in ``fig5-<quality>-ribbon.csv``, fig6 its ribbon map in
 ``fig6-<quality>-ribbon.csv``.
 
 Quality: ``"quick"`` is the fold map at hmax 0.1 with continuation steps of
-at most 0.1 in L/a and folds located to +-0.005 (:data:`QUICK_GRID`; 10 s
+at most 0.1 in L/a, each fold located where its branch ends (:data:`QUICK_GRID`; 10 s
 to 4.5 min per (b/a, a/R) point on one core, longest for wide, strongly
 curved sheets; the 49 points took 44 min on 2 cores, once; then each figure
 draws in about 5 s from the table, and fig6 adds about 1.5 min for its
