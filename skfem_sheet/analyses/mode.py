@@ -217,6 +217,28 @@ def mode_of(problem, w, gravity: float = 1.0, linear=None) -> Mode:
     if gravity == 0.0:
         return Mode(CURVATURE_DOMINATED, reason="no gravity")
     w = np.asarray(w, dtype=float)
+    relaxed, c_min = transverse_curvature(problem, w)
+    try:
+        slope, bend = _slope_and_bend(problem, w, gravity, linear)
+    except (ParameterError, LinearSolverError) as err:
+        # the S-curve's sign not read (a state that inverts an element at a length
+        # next to it, a tangent the solver cannot factorise): the curvature's alone
+        name = GRAVITY_DOMINATED if relaxed else CURVATURE_DOMINATED
+        return Mode(name, math.nan, math.nan, relaxed, c_min,
+                    f"{'the curvature relaxes inside the sheet' if relaxed else 'the curvature persists'}"
+                    f" (the S-curve's slope not read: {err})")
+    name = name_of(slope, bend, relaxed)
+    if name == GRAVITY_DOMINATED:
+        reason = ("the curvature relaxes inside the sheet" if relaxed
+                  else "the sag decelerates with the length")
+    else:
+        reason = "the tip rises with the length" if slope <= 0 else \
+            "the sag accelerates with the length"
+    return Mode(name, float(slope), float(bend), relaxed, c_min, reason)
+
+
+def _slope_and_bend(problem, w, gravity, linear):
+    """``(d', d'')`` of the tip deflection along the S-curve at the equilibrium ``w``."""
     free = problem.free
     L = float(problem.length)
     # the tangent of the S-curve: K w' = -R_L (the clamp values do not depend on L)
@@ -234,25 +256,17 @@ def mode_of(problem, w, gravity: float = 1.0, linear=None) -> Mode:
         prob = problem if s == 0.0 else scaled_problem(problem, length=L + s * e)
         rr, jmin = prob.residual(w + s * e * dw, gravity)
         if not jmin > 0:
-            raise ParameterError(f"the mode: the state inverts an element at L = {L + s * e:g}")
+            raise ParameterError(f"the state inverts an element at L = {L + s * e:g}")
         r.append(rr[free])
     q = (r[2] - 2.0 * r[1] + r[0]) / e**2
     d2u = -_solve(problem, w, q[:, None], linear)[:, 0]
     dw2 = np.zeros_like(w)
     dw2[free] = d2u
+
     def along(x):
         # the tip deflection is piecewise linear in the state (its lowest nodes):
         # a step small against the state's own scale gives its derivative
         h = 1e-7 / max(1.0, float(np.abs(x).max()))
         return (tip_deflection(problem, w + h * x) - tip_deflection(problem, w - h * x)) / (2 * h)
 
-    slope, bend = along(dw), along(dw2)
-    relaxed, c_min = transverse_curvature(problem, w)
-    name = name_of(slope, bend, relaxed)
-    if name == GRAVITY_DOMINATED:
-        reason = ("the curvature relaxes inside the sheet" if relaxed
-                  else "the sag decelerates with the length")
-    else:
-        reason = "the tip rises with the length" if slope <= 0 else \
-            "the sag accelerates with the length"
-    return Mode(name, float(slope), float(bend), relaxed, c_min, reason)
+    return along(dw), along(dw2)
