@@ -68,6 +68,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from tqdm.auto import tqdm
 
+from .analyses.mode import mode_of
 from .analyses.stability import stability
 from .analyses.transfer import transfer
 from .continuation import StepOptions
@@ -156,13 +157,16 @@ def fold_range(length: float, lengths=None) -> tuple:
 
 @dataclass(frozen=True)
 class BranchPoint:
-    """One equilibrium at full load: length, tip deflection, stability."""
+    """One equilibrium at full load: length, tip deflection, stability, and (where
+    asked for, ``names=True``) its name (:func:`skfem_sheet.analyses.mode.mode_of`:
+    "curvature-dominated" or "gravity-dominated", as ``solve`` names it)."""
 
     length: float
     deflection: float
     stable: object  # bool or None (solver cannot tell)
     negative_eigenvalues: object = None
     newton_iterations: int = 0
+    name: str = ""
 
 
 class _Curve:
@@ -180,6 +184,11 @@ class _Curve:
     @property
     def stable(self):
         return [p.stable for p in self.points]
+
+    @property
+    def names(self):
+        """Each point's name ("" where not asked for)."""
+        return [p.name for p in self.points]
 
     def write_series(self, directory, name, series) -> str:
         """Write the states of this curve as a ParaView series, ``directory/name.pvd``.
@@ -507,7 +516,7 @@ def _branch_end(direction, ahead):
 
 def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, jump,
             progress, min_step=MIN_STEP, on_point=None, start=None, record=None, guide=None,
-            twin=None, locate=True):
+            twin=None, locate=True, names=False):
     """Natural continuation in ``name`` ("L" or "a/R") to ``stop``, its end
     located (see :func:`follow_length`), on the engine's driver
     :func:`skfem_sheet.engine.natural`: predictor ``dw/dp`` with the last
@@ -532,7 +541,9 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, j
     branch, and a :class:`_SameBranch` (the work of the start and the check)
     is returned instead of tracing it again.  ``locate`` False: no fold is
     looked for (a continuation up to a fold already located, e.g. the
-    branch on a fine mesh up to its fold)."""
+    branch on a fine mesh up to its fold).  ``names`` (in L): each point named
+    as ``solve`` names a state (:func:`~skfem_sheet.analyses.mode.mode_of`,
+    with the point's factorisation: back-substitutions and residuals)."""
     _check_common(sheet, hmax, step)
     stop = check_range("stop", stop, **_STOP_RANGE[name])
     min_step = min(float(min_step), float(step))
@@ -568,7 +579,11 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, j
             st, k = _stability_of(res.factorization)
             d, its = P.deflection(pt.u, pt.p), stats.newton_iterations
         accepted.clear()
-        points.append(BranchPoint(float(pt.p[0]), d, st, k, its))
+        label = ""
+        if names and name == "L":
+            label = mode_of(P.problem(pt.p), P.full(pt.u, pt.p), 1.0,
+                            linear=res.factorization).name
+        points.append(BranchPoint(float(pt.p[0]), d, st, k, its, label))
         if on_point is not None:
             on_point(P.problem(pt.p), P.full(pt.u, pt.p), float(pt.p[0]))
         if record is not None:
@@ -1284,7 +1299,7 @@ def locate_on_mesh(sheet: Sheet, point, problem, kind: str, hmax: float, *, laye
 def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None,
                  branches: bool = False, coarse_hmax=None, step: float = 0.1, layers=None,
                  solver: str = "auto", progress: bool = False, on_point=(None, None),
-                 keep_states: bool = False, min_step=None, tol=None,
+                 keep_states: bool = False, min_step=None, tol=None, names: bool = False,
                  **legacy_keywords) -> FoldLengths:
     """The fold lengths ``L0*`` and ``L1*`` of a sheet's planform at its
     curvature and material, located, and where the sheet's length sits.
@@ -1346,6 +1361,10 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
         :attr:`Fold.problem`: for its sensitivities).
     min_step, tol
         The shortest step (:func:`follow_length`; ``tol`` deprecated).
+    names : bool
+        Name each point of the returned branches as ``solve`` names a state
+        (:attr:`BranchPoint.name`; the figures' transition between the modes
+        where the sheet is not bistable).
     legacy, legacy_keywords
         The old call, ``fold_lengths(tip_width, curvature, thickness=...,
         modulus=..., ...)``, still works for one release, with a
@@ -1368,7 +1387,8 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
     """
     options = dict(hmax=hmax, lengths=lengths, branches=branches, coarse_hmax=coarse_hmax,
                    step=step, layers=layers, solver=solver, progress=progress,
-                   on_point=on_point, keep_states=keep_states, min_step=min_step, tol=tol)
+                   on_point=on_point, keep_states=keep_states, min_step=min_step, tol=tol,
+                   names=names)
     if not isinstance(sheet, Sheet):
         if isinstance(sheet, numbers.Real) and not isinstance(sheet, bool):
             # the old call fold_lengths(tip_width, curvature, ...): one release more
@@ -1404,11 +1424,13 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
         if user is not None:
             user(problem, w, length)
 
+    trace_names = bool(names) and not (fine_branches and h_trace != hmax)
     bars = _bars(progress, lo, hi)
     try:
         up = _follow("L", base, hi, path="curvature-first", hmax=h_trace,
                      **{**common, "layers": layers if h_trace == hmax else None},
-                     progress=bars[0], on_point=keep_last, record=guides[0])
+                     progress=bars[0], on_point=keep_last, record=guides[0],
+                     names=trace_names)
         down = up
         if not flat:
             # the gravity-dominated branch is the curvature-dominated one where
@@ -1421,7 +1443,7 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
                            hmax=h_trace, **{**common,
                                             "layers": layers if h_trace == hmax else None},
                            progress=bars[1], on_point=trace_on[1], record=guides[1],
-                           twin=twin)
+                           twin=twin, names=trace_names)
             if isinstance(down, _SameBranch):
                 up = replace(up, newton_iterations=up.newton_iterations
                              + down.newton_iterations)
@@ -1462,7 +1484,8 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
     down = up if one else _ending_at(down.without_states(), located.get("popup"))
     if fine_branches and h_trace != hmax:
         up, down, n = _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides,
-                                     located, up, down, on_point, progress, flat, solver)
+                                     located, up, down, on_point, progress, flat, solver,
+                                     names)
         fine_work += n
     return FoldLengths(sheet, hmax, (lo, hi), located.get("standout"), located.get("popup"),
                        up, down, h_trace, hmax if fine_branches else h_trace,
@@ -1486,7 +1509,7 @@ FOLD_GAP = 0.01
 
 
 def _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides, located, up, down,
-                   on_point, progress, flat, solver):
+                   on_point, progress, flat, solver, names=False):
     """The two branches on the mesh ``hmax`` (:func:`fold_lengths`, step 3):
     from their starts (reached from the trace mesh) up to their located folds
     (or the range's end), guided by the traced branches; ``(up, down,
@@ -1510,7 +1533,7 @@ def _fine_branches(sheet, base, lo, hi, hmax, h_trace, common, guides, located, 
                 continue
             b = _follow("L", sheet_at, stop, path=path, hmax=hmax, **common,
                         progress=bars[k], on_point=on_point[k], start=start,
-                        guide=guides[k], locate=fold is None)
+                        guide=guides[k], locate=fold is None, names=names)
             work += b.newton_iterations
             if fold is None and b.fold_point is not None:
                 # a fold on this mesh that the trace did not have (near the cusp, where

@@ -64,8 +64,9 @@ on the mesh stretched in L (the family of lengths of
 the residual along the tangent ``(w', 1)`` in ``(w, L)`` (a central second
 difference of three residuals on the stretched meshes); ``d' = T(w')`` and
 ``d'' = T(w'')`` with ``T`` the tip deflection (linear in the state).  Two
-back-substitutions with the solve's factorisation, four residuals and one
-evaluation of the mid-surface at 19 x 21 points: a few per cent of a solve.
+solves with the solve's factorisation refined against the tangent at the
+state (one assembly), four residuals and one evaluation of the mid-surface
+at 19 x 21 points: a few per cent of a solve.
 
 Examples
 --------
@@ -82,11 +83,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..linalg import LinearSolverError, make_linear_solver
+from ..linalg import LinearSolverError
 from ..params import ParameterError
 from .midsurface import midsurface
 from .observables import tip_deflection
-from .sensitivity import parameter_derivatives, scaled_problem
+from .sensitivity import parameter_derivatives, scaled_problem, solve_refined
 
 __all__ = ["CURVATURE_DOMINATED", "GRAVITY_DOMINATED", "MODES", "Mode", "PERSISTENCE_SPAN",
            "mode_of", "name_of", "transverse_curvature"]
@@ -176,21 +177,6 @@ def transverse_curvature(problem, w):
     return bool(np.any(c < 0)), float(c.min())
 
 
-def _solve(problem, w, B, linear):
-    """``K(w)^-1 B`` with the factorisation ``linear`` holds (the solve's, at
-    the state), or with a fresh one at ``w``."""
-    if linear is not None:
-        try:
-            X = linear.solve(B)
-        except (AttributeError, TypeError, ValueError, RuntimeError, LinearSolverError):
-            X = None
-        if X is not None and np.all(np.isfinite(X)):
-            return np.asarray(X, dtype=float)
-    solver = make_linear_solver("auto")
-    solver.factorize(problem.tangent(w), w)
-    return np.asarray(solver.solve(B), dtype=float)
-
-
 def mode_of(problem, w, gravity: float = 1.0, linear=None) -> Mode:
     """The mode of the equilibrium ``w`` of ``problem`` at the load factor ``gravity``.
 
@@ -204,7 +190,11 @@ def mode_of(problem, w, gravity: float = 1.0, linear=None) -> Mode:
         The load factor of the state.
     linear : linear solver, optional
         A back-end holding the factorised tangent at (or next to) ``w``
-        (the solve's); default: factorise it at ``w``.
+        (the solve's, a continuation step's), refined against the tangent
+        assembled at ``w`` (:func:`~skfem_sheet.analyses.sensitivity.solve_refined`:
+        near a steep part of the S-curve the tangent is nearly singular, and a
+        factorisation made at the step's prediction instead of its state
+        moves ``d''`` by more than its size); default: factorise it at ``w``.
 
     Returns
     -------
@@ -243,7 +233,7 @@ def _slope_and_bend(problem, w, gravity, linear):
     L = float(problem.length)
     # the tangent of the S-curve: K w' = -R_L (the clamp values do not depend on L)
     R_L, _, _ = parameter_derivatives(problem, w, gravity, ("length",))
-    du = -_solve(problem, w, R_L, linear)[:, 0]
+    du = -solve_refined(problem, w, R_L, linear)[:, 0]
     # D^2 R along (w', 1), a central second difference on the stretched meshes
     e = BEND_STEP * L
     scale = float(np.abs(du).max()) if du.size else 0.0
@@ -259,7 +249,7 @@ def _slope_and_bend(problem, w, gravity, linear):
             raise ParameterError(f"the state inverts an element at L = {L + s * e:g}")
         r.append(rr[free])
     q = (r[2] - 2.0 * r[1] + r[0]) / e**2
-    d2u = -_solve(problem, w, q[:, None], linear)[:, 0]
+    d2u = -solve_refined(problem, w, q[:, None], linear)[:, 0]
     dw2 = np.zeros_like(w)
     dw2[free] = d2u
 

@@ -98,7 +98,7 @@ from .observables import tip_deflection
 
 __all__ = ["OUTPUTS", "PARAMETERS", "SI_UNITS", "RELATIVE_STEP", "Sensitivities",
            "check_parameters", "fold_sensitivities", "mapped_problem", "parameter_derivatives",
-           "perturbed", "scaled_problem", "state_sensitivities", "tip_angle"]
+           "perturbed", "scaled_problem", "solve_refined", "state_sensitivities", "tip_angle"]
 
 #: The parameters, in the order they are reported.
 PARAMETERS = ("modulus", "thickness", "curvature", "gravity", "length", "tip_width")
@@ -437,9 +437,14 @@ def _check_outputs(outputs):
 
 
 # -- the linear solves ---------------------------------------------------------------------
-def _solve_refined(problem, w, B, linear, stats):
+def solve_refined(problem, w, B, linear, stats=None):
     """``K(w)^-1 B`` with the factorisation ``linear`` holds, refined against
-    the tangent assembled at ``w`` (refactorised there if that does not contract)."""
+    the tangent assembled at ``w`` (refactorised there if that does not contract):
+    the answer of the tangent at the state, whichever nearby state the held
+    factorisation was made at.  ``stats`` (a dict) counts the work."""
+    if stats is None:
+        stats = dict(residual_evaluations=0, back_substitutions=0, factorizations=0,
+                     tangent_assemblies=0, refinement_steps=0, residual=0.0)
     K = problem.tangent(w)
     stats["tangent_assemblies"] += 1
     norm_b = np.linalg.norm(B, axis=0)
@@ -471,7 +476,10 @@ def _solve_refined(problem, w, B, linear, stats):
                 if not stats["residual"] <= ACCEPT_TOL:
                     X = None
     if X is None:
-        solver = linear if linear is not None else make_linear_solver("auto")
+        # a back-end to factorise the tangent at w: the solve's own, or a fresh one
+        # where ``linear`` only holds a factorisation (a continuation step's)
+        solver = linear if callable(getattr(linear, "factorize", None)) else \
+            make_linear_solver("auto")
         solver.factorize(K, w)
         stats["factorizations"] += 1
         X = solver.solve(B)
@@ -643,7 +651,7 @@ def state_sensitivities(problem: SheetProblem, w, gravity: float, parameters, *,
     stats = dict(residual_evaluations=0, back_substitutions=0, factorizations=0,
                  tangent_assemblies=0, refinement_steps=0, residual=0.0)
     R_p, dU_c, points = parameter_derivatives(problem, w, gravity, parameters, stats=stats)
-    du = -_solve_refined(problem, w, R_p, linear, stats)
+    du = -solve_refined(problem, w, R_p, linear, stats)
     values = []
     for out in outputs:
         q = _OUTPUT_FUNCTIONS[out]

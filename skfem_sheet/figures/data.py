@@ -130,12 +130,19 @@ def _has_fold(row) -> bool:
 
 def _inside_window(row, point) -> bool:
     """Whether a windowed row gives its point's transition: usable, without a
-    fold, and its steepest interval of d(L) inside the window (or at an end
-    of the point's whole range): then the whole branch, whose d(L) rises
-    through one steep part, has it there too."""
+    fold, and the names of its points changing inside the window (rows
+    without names: its steepest interval of d(L) inside it), or at an end of
+    the point's whole range: then the whole branch has it there too."""
     if not usable(row) or as_bool([row["bistable"]])[0] or _has_fold(row):
         return False
     L, d, _ = foldmap.branch_curve(row)
+    names = foldmap.branch_names(row)
+    if len(names) == len(L) and len(L) >= 2:
+        # the names change inside the window (or at an end of the whole range)
+        gd = [k for k, n in enumerate(names) if n == "gravity-dominated"]
+        if not gd:
+            return L[-1] >= float(point["length_max"]) - 1e-9
+        return gd[0] > 0 or L[0] <= float(point["length_min"]) + 1e-9
     if len(L) < 3:
         return False
     i = foldmap.steepest_interval(L, d)
@@ -149,9 +156,9 @@ def transition_rows(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, p
     (Fig. 6's markers where the transition is continuous).
 
     :func:`~skfem_sheet.studies.foldmap.transition_length` reads one number
-    from such a row, the middle of the steepest interval of d(L) on the
-    curvature-dominated branch, and that needs the branch on the fine mesh
-    only around it.  So each point is first computed on the coarse mesh its
+    from such a row, where the names of the curvature-dominated branch's
+    points change (as ``solve`` names them), and that needs the branch on the
+    fine mesh only around it.  So each point is first computed on the coarse mesh its
     branches are guided by (:func:`~skfem_sheet.studies.foldmap.row_coarse_hmax`:
     its whole range of lengths, the same step), and then on its own mesh
     over the lengths within :data:`TRANSITION_WINDOW` of the coarse

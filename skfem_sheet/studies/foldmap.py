@@ -68,7 +68,8 @@ from .runner import (
 
 __all__ = ["MAP_PARAMETERS", "MAP_COLUMNS", "map_points", "map_key", "map_sheet", "fold_map",
            "row_coarse_hmax",
-           "branch_curve", "transition_length", "steepest_interval", "modes", "critical_tip_width",
+           "branch_curve", "branch_names", "transition_length", "steepest_interval", "modes",
+           "critical_tip_width",
            "CURVE_PARAMETERS", "CURVE_COLUMNS", "curve_points", "fold_curves", "curve_halves",
            "critical_curve"]
 
@@ -173,16 +174,20 @@ def _empty_record(point, key):
 
 
 def _curve_json(branch) -> str:
-    """A branch curve as JSON: its points, and its located fold last (stability
-    ``null``: the marginal state where the branch ends)."""
+    """A branch curve as JSON: its points (each with its name, as ``solve``
+    names a state), and its located fold last (stability ``null``: the
+    marginal state where the branch ends; name ``""``)."""
     L = [round(float(x), 10) for x in branch.lengths]
     d = [float(x) for x in branch.deflections]
     st = [None if s is None else bool(s) for s in branch.stable]
+    names = list(branch.names)
     if branch.fold is not None and math.isfinite(branch.fold_deflection):
         L.append(round(float(branch.fold), 10))
         d.append(float(branch.fold_deflection))
         st.append(None)
-    return dumps_json({"lengths": L, "deflection": d, "stable": st}, compact=True)
+        names.append("")
+    return dumps_json({"lengths": L, "deflection": d, "stable": st, "names": names},
+                      compact=True)
 
 
 def _nan(x):
@@ -231,7 +236,7 @@ def _fill_map_record(point, rec) -> None:
                      lengths=(point["length_min"], point["length_max"]), branches=True,
                      coarse_hmax=coarse if coarse is not None else 0,
                      layers=point["layers"], solver=point["solver"], step=point["step"],
-                     min_step=min(point["tol"], point["step"]))
+                     min_step=min(point["tol"], point["step"]), names=True)
     up, down = r.increasing, r.decreasing
     notes = []
     if up.start_snapped:
@@ -360,15 +365,27 @@ def transition_length(row) -> float | None:
 
     For a bistable row there are two (``L0*`` and ``L1*``) and this returns
     None.  Otherwise: the single fold found, if there is one; else (the
-    transition is continuous) the middle of the steepest interval of
-    ``d(L)`` on the curvature-dominated branch; None for a flat curve
-    (``a/R = 0``, where there is no curvature-dominated mode to lose).
+    transition is continuous) the middle of the interval of the
+    curvature-dominated branch where the names of its points (as ``solve``
+    names a state, :mod:`skfem_sheet.analyses.mode`) change from
+    curvature- to gravity-dominated, so that the figures mark the modes as
+    the solver names them; for a row without names (tables from before they
+    were stored) the middle of the steepest interval of ``d(L)``; None for a
+    flat curve (``a/R = 0``, where there is no curvature-dominated mode to
+    lose).
 
     Examples
     --------
     >>> transition_length({"bistable": False, "standout_length": float("nan"),
     ...                    "popup_length": 1.24, "curvature": 2.5})
     1.24
+    >>> curve = ('{"lengths": [1.2, 1.3, 1.4], "deflection": [0.1, 0.3, 0.6], '
+    ...          '"stable": [true, true, true], "names": ["curvature-dominated", '
+    ...          '"gravity-dominated", "gravity-dominated"]}')
+    >>> transition_length({"bistable": False, "standout_length": float("nan"),
+    ...                    "popup_length": float("nan"), "curvature": 2.5,
+    ...                    "curvature_dominated": curve})
+    1.25
     """
     if bool(row["bistable"]):
         return None
@@ -379,10 +396,40 @@ def transition_length(row) -> float | None:
     if float(row["curvature"]) == 0.0:
         return None
     L, d, _ = branch_curve(row)
+    names = branch_names(row)
+    if len(names) == len(L) and len(L) >= 2 and all(names):
+        gd = [k for k, n in enumerate(names) if n == "gravity-dominated"]
+        if not gd:
+            return float(L[-1])          # curvature-dominated to its end
+        k = gd[0]
+        return float(L[0]) if k == 0 else float(0.5 * (L[k - 1] + L[k]))
     if len(L) < 3:
         return None
     i = steepest_interval(L, d)
     return float(0.5 * (L[i] + L[i + 1]))
+
+
+def branch_names(row, which: str = "curvature_dominated") -> list:
+    """The names of the points of a row's branch (sorted by length as
+    :func:`branch_curve`; the located fold's, unnamed, left out), or ``[]``
+    for a row without them.
+
+    Examples
+    --------
+    >>> branch_names({"curvature_dominated": '{"lengths": [0.6, 0.5, 0.7], "deflection": '
+    ...               '[0, 0, 0], "stable": [true, true, null], "names": ["a", "b", ""]}'})
+    ['b', 'a']
+    """
+    text = row[which] if which in row else ""
+    if not isinstance(text, str) or not text:
+        return []
+    data = json.loads(text)
+    names = data.get("names")
+    if not names:
+        return []
+    L = np.asarray(data["lengths"], float)
+    order = np.argsort(L, kind="stable")
+    return [names[k] for k in order if names[k]]
 
 
 def steepest_interval(L, d) -> int:
