@@ -35,7 +35,7 @@ while the little curvature it has never changes sign (2.), and a long
 hanging sheet on a strongly curved clamp (a/R 3.5 to 5) can have a sag that
 accelerates again far out on its branch (1.); on the stress set both
 together name every hanging state gravity-dominated
-(``benchmarks/labels.py``, record in
+(``benchmarks/bistability.py --names``, record in
 ``benchmarks/results/robustness/labels_n100_seed1_hmax0.1.txt``).
 
 Why a bistable pair gets two names: at a fold ``L*`` the S-curve is a
