@@ -73,6 +73,7 @@ from .continuation import (
     StepOptions,
     end_state_verdict,
     follow_path,
+    landed_on_its_fold,
     load_phases,
     newton_tolerances,
     settle,
@@ -341,11 +342,11 @@ class CoarseStart:
             log.debug("coarse fold at %.6g located on hmax %g at %s with %d factorisations",
                       fold.snap.load, hmax, None if located is None else located.value,
                       job.stats.factorizations - f0)
+            why = ""
             if located is None:
-                return fall_back(f"the coarse fold in the {name} phase at "
-                                 f"{fold.snap.load:.6g} was not located on hmax {hmax:g}", seen)
-            lam = located.value
-            if located.side != -1:
+                why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was not "
+                       f"located on hmax {hmax:g}")
+            elif located.side != -1:
                 # a load path's fold ends its branch: the load turns back there
                 # (the branch's solutions lie below the fold load, side -1).  A
                 # fold with its solutions above it is where a branch begins as
@@ -354,10 +355,27 @@ class CoarseStart:
                 # (measured: L 1.63, b 0.65, a/R 3.37, h 0.02, curvature-first
                 # at hmax 0.1 from 0.2: the coarse fold at 0.2349 carried to the
                 # fine pair's lower fold at 0.1814, the fine path's fold at 0.2185)
-                return fall_back(f"the coarse fold in the {name} phase at "
-                                 f"{fold.snap.load:.6g} was located on hmax {hmax:g} at "
-                                 f"{lam:.6g}, a fold where the load turns up (a branch begins "
-                                 f"there), not where the sheet snaps", seen)
+                why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was "
+                       f"located on hmax {hmax:g} at {located.value:.6g}, a fold where the "
+                       f"load turns up (a branch begins there), not where the sheet snaps")
+            if why:
+                # the fine mesh's fold is not near the coarse one: the fine
+                # path from the coarse fold's state, an equilibrium of the fine
+                # branch at that load (the branch goes on there on the fine
+                # mesh), finds it
+                out, more = _path_from_coarse_fold(cproblem, fold, sheet, phase, job)
+                if out is None:
+                    return fall_back(f"{why}, and {more}", seen)
+                return after_coarse(out, [x for x in coarse.steps if (names.index(x[0]), x[1])
+                                          <= (iphase, fold.snap.load)])
+            lam = located.value
+            if _same_fine_fold(located, name, folds, job.step_options.fold_tolerance):
+                # two coarse folds close together, one on the fine mesh: the
+                # sheet snapped from it already (the landing carried from the
+                # first, or a snap of the fine mesh's own)
+                seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
+                             "snapped": False, "same_fine_fold": True})
+                continue
             inside = lam <= 1.0
             seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
                          "snapped": inside})
@@ -536,8 +554,12 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
     loose = replace(job.newton_options, rtol=1.0, linearization="exact",
                     utol=job.step_options.intermediate_utol(scale))
     res = newton(fine, w, g, job.linear, loose, job.stats)
+    w_fold = sheet.full(located.u, (kappa, g))
     landing = None
-    if res.converged:
+    if res.converged and not landed_on_its_fold(res.w, w_fold, fine.nu_dof, loose.utol):
+        # (a carried landing that Newton takes back to the fold state is no
+        # landing: the fine mesh has no stable state there, the coarse one's
+        # was a step of a snap in two that the fine mesh makes in one)
         stable, _ = end_state_verdict(fine, job.linear, res.w, job.stats)
         if stable is not False:
             landing = res.w
@@ -548,12 +570,60 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
                                      step_options=job.step_options,
                                      negative_eigenvalues=crossing)
         return found
-    w_fold = sheet.full(located.u, (kappa, g))
     v = np.asarray(located.v, dtype=float)
     v = v / float(np.abs(v[fine.free < fine.nu_dof]).max())
     snap = Snap(fold.snap.phase, float(located.value), kappa, g, tip_deflection(fine, w_fold),
                 tip_deflection(fine, landing), tuple(crossing), float(fine.sheet_mesh.hmax))
-    return Fold(snap, w_fold, v, landing)
+    before = None
+    if fold.before is not None:  # for a finer level: the coarse branch's point, carried
+        before = transfer(cproblem, fold.before, fine)
+        before[fine.clamp_dofs] = fine.clamp_values(phase.loads([fold.before_load])[0])
+    return Fold(snap, w_fold, v, landing, before, fold.before_load)
+
+
+def _same_fine_fold(located, phase_name, folds, ptol) -> bool:
+    """Whether the fine fold ``located`` is the one the sheet last snapped
+    from on the fine mesh (the same phase, the load within the two locations'
+    tolerance ``ptol`` each): a fold that two coarse folds close together lead
+    to is snapped from once."""
+    if not folds:
+        return False
+    last = folds[-1].snap
+    return last.phase == phase_name and \
+        abs(located.value - last.load) <= 2.0 * ptol * max(1.0, abs(last.load))
+
+
+def _path_from_coarse_fold(cproblem, fold, sheet, phase, job):
+    """The load path on the fine mesh from the coarse branch's last point
+    before the fold (:attr:`~skfem_sheet.continuation.Fold.before`; the fold
+    state where it is not known): the state carried over and solved by
+    Newton at its load, accepted as a point of the branch by the load path's
+    step rule (its distance from the carried state) and stable, then the path
+    from there to full load, which locates the fine mesh's fold of that
+    branch, where the fine mesh has it.  (At the coarse fold itself a fine
+    mesh whose fold lies further on has two equilibria near the fold state,
+    the stable branch and the unstable one it turns into.)
+    ``(PathOutcome, "")`` or ``(None, why not)``."""
+    fine = sheet.problem
+    state, lam = ((fold.before, fold.before_load) if fold.before is not None
+                  else (fold.w, fold.snap.load))
+    kappa, g = phase.loads([lam])
+    w0 = transfer(cproblem, state, fine)
+    w0[fine.clamp_dofs] = fine.clamp_values(kappa)
+    res = newton(fine, w0, g, job.linear, job.newton_options, job.stats)
+    if not res.converged:
+        return None, f"Newton from its state on the fine mesh failed ({res.reason})"
+    moved = float(np.abs(res.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
+    if job.step_options.rule(max(1.0, fine.sheet.length)).rejects(moved):
+        return None, (f"Newton from its state on the fine mesh moved {moved:.3g} (another "
+                      f"branch)")
+    stable, k = end_state_verdict(fine, job.linear, res.w, job.stats)
+    if stable is False:
+        return None, f"its state on the fine mesh is unstable ({k} negative eigenvalue(s))"
+    out = _path(job, w0=res.w, resume=(fold.snap.phase, lam))
+    if not out.converged:
+        return None, f"the fine path from its state failed: {out.reason}"
+    return out, ""
 
 
 def _before_fold(sheet, phase, fold, tol):
