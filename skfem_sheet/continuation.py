@@ -368,6 +368,12 @@ def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *
     return Fold(snap, w_fold, v, res.w), "", n_pt
 
 
+def _same_fold(snap, phase_name, load, ptol) -> bool:
+    """Whether the fold at ``load`` of the phase ``phase_name`` is the one of
+    ``snap`` (the load within the two locations' tolerance ``ptol`` each)."""
+    return snap.phase == phase_name and abs(load - snap.load) <= 2.0 * ptol * max(1.0, abs(load))
+
+
 def landed_on_its_fold(landing, w_fold, nu_dof: int, utol: float) -> bool:
     """Whether a snap's landing is its own fold state: the largest
     displacement between them at most twice the tolerance ``utol`` the
@@ -508,6 +514,13 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             if fold is None:
                 out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
                               f"(kappa={out.kappa:.4g}, g={out.g:.4g}): {branch.reason}")
+                return out
+            if any(_same_fold(s, name, fold.value, step_options.fold_tolerance)
+                   for s in out.snaps):
+                # a snap must leave its fold for good: a path led back to it
+                # would snap from it again and again
+                out.reason = (f"{name} phase, fold at {fold.value:.6g} of its range: the "
+                              f"branch the snap from it landed on leads back to it")
                 return out
             f0 = stats.factorizations
             found, why, n_pt = snap_from_fold(sheet, phase, name, fold,

@@ -65,7 +65,7 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .analyses.transfer import transfer
+from .analyses.transfer import TransferError, transfer
 from .continuation import (
     Fold,
     PathOutcome,
@@ -81,9 +81,10 @@ from .continuation import (
 )
 from .engine.corrector import correct, plain_linearization
 from .engine.fold import fold_on_branch, locate_fold
+from .engine.loadpath import ramp
 from .engine.protocol import Counting, EngineFailure
 from .linalg import make_linear_solver
-from .newton import NewtonOptions, Stats, newton
+from .newton import NewtonOptions, NewtonResult, Stats, newton
 from .params import ParameterError, check_range
 from .result import StartRecord
 from .sheet_engine import LoadPhase, SheetLoadProblem
@@ -254,7 +255,14 @@ class CoarseStart:
         return ""
 
     def reach(self, job: Job) -> Reached:
-        out, record = self._carried_path(job, job.step_options.fold_tolerance / 100)
+        try:
+            out, record = self._carried_path(job, job.step_options.fold_tolerance / 100)
+        except TransferError as err:
+            # meshes that do not describe one outline (never two meshes of one
+            # sheet): the path on the mesh of the solve, and the record says why
+            hmax = float(job.problem.sheet_mesh.hmax) / 2 ** int(job.problem.sheet_mesh.refine)
+            out, record = _path(job), StartRecord(self.name, self.coarse_mesh(hmax),
+                                                  fallback=str(err))
         return Reached.of_path(out, record)
 
     def _carried_path(self, job: Job, coarse_fold_tolerance: float, finish: str = "fine"):
@@ -331,17 +339,29 @@ class CoarseStart:
         tight = newton_tolerances(job.newton_options)
         scale = max(1.0, fine.sheet.length)
         folds, seen = [], []
+        located_at = {}
+
+        def located_on_fine(k):
+            """Coarse fold ``k`` located on the fine mesh (once)."""
+            if k not in located_at:
+                fold = coarse.folds[k]
+                phase = LoadPhase(sheet, *phases[names.index(fold.snap.phase)][1:])
+                f0 = job.stats.factorizations
+                located_at[k] = _fold_on_fine(cproblem, fold, sheet, phase, tight,
+                                              job.step_options.fold_tolerance)
+                log.debug("coarse fold at %.6g located on hmax %g at %s with %d "
+                          "factorisations", fold.snap.load, hmax,
+                          None if located_at[k] is None else located_at[k].value,
+                          job.stats.factorizations - f0)
+            return located_at[k]
+
         for k, fold in enumerate(coarse.folds):
             job.report(share + (1.0 - share) * k / (len(coarse.folds) + 1))
             name = fold.snap.phase
             iphase = names.index(name)
             phase = LoadPhase(sheet, *phases[iphase][1:])
             f0 = job.stats.factorizations
-            located = _fold_on_fine(cproblem, fold, sheet, phase, tight,
-                                    job.step_options.fold_tolerance)
-            log.debug("coarse fold at %.6g located on hmax %g at %s with %d factorisations",
-                      fold.snap.load, hmax, None if located is None else located.value,
-                      job.stats.factorizations - f0)
+            located = located_on_fine(k)
             why = ""
             if located is None:
                 why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was not "
@@ -380,8 +400,18 @@ class CoarseStart:
             seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
                          "snapped": inside})
             if inside:
+                # the coarse folds after this one that lead to the same fine fold
+                # (a snap in steps on the coarse mesh, one on the fine): the
+                # sheet lands where the last of them landed
+                last = k
+                while last + 1 < len(coarse.folds) and \
+                        coarse.folds[last + 1].snap.phase == name and \
+                        located_on_fine(last + 1) is not None and \
+                        _same_load(located_on_fine(last + 1).value, lam,
+                                   job.step_options.fold_tolerance):
+                    last += 1
                 snapped = _fine_snap(cproblem, fold, sheet, phase, located, job,
-                                     fold.snap.negative_eigenvalues)
+                                     fold.snap.negative_eigenvalues, coarse.folds[last])
                 if snapped is None:
                     return fall_back(f"the snap at the fold in the {name} phase at {lam:.6g} "
                                      f"failed on hmax {hmax:g}", seen)
@@ -411,6 +441,8 @@ class CoarseStart:
         w0 = transfer(cproblem, coarse.w, fine)
         w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
         res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
+        log.debug("fine Newton from the coarse end state: %s %s corrections %s", res.converged,
+                  res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
         if not res.converged and folds:
             # a snap was carried: the fine sheet is on its landing state at the
@@ -536,14 +568,16 @@ def _fold_on_fine(cproblem, fold, sheet, phase, tol, ptol):
     return located
 
 
-def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
+def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing, landed=None):
     """The snap at the fine fold ``located``: landing on the coarse path's
-    landing state carried over and solved at the fine fold load (else a snap
-    settle on the fine mesh): the Fold (its Snap record, the fold state and
-    null vector on the fine mesh, the landed state), or None."""
+    landing state (of the coarse fold ``landed``, default ``fold``) carried
+    over and solved at the fine fold load (else a snap settle on the fine
+    mesh): the Fold (its Snap record, the fold state and null vector on the
+    fine mesh, the landed state), or None."""
     fine = sheet.problem
+    landed = fold if landed is None else landed
     kappa, g = phase.loads(located.p)
-    w = transfer(cproblem, fold.landing, fine)
+    w = transfer(cproblem, landed.landing, fine)
     w[fine.clamp_dofs] = fine.clamp_values(kappa)
     # a point on the way, solved like every point of the load path (to a
     # tenth of the nominal corrector distance, StepOptions.intermediate_utol)
@@ -554,6 +588,8 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
     loose = replace(job.newton_options, rtol=1.0, linearization="exact",
                     utol=job.step_options.intermediate_utol(scale))
     res = newton(fine, w, g, job.linear, loose, job.stats)
+    if not res.converged and landed.snap.load != located.value:
+        res = _landing_followed_to_fine_load(cproblem, landed, phase, located.value, job, loose)
     w_fold = sheet.full(located.u, (kappa, g))
     landing = None
     if res.converged and not landed_on_its_fold(res.w, w_fold, fine.nu_dof, loose.utol):
@@ -564,6 +600,8 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
         if stable is not False:
             landing = res.w
     if landing is None:
+        log.debug("the carried landing at %.6g: %s", located.value,
+                  res.reason or "back at the fold, or unstable")
         found, _, _ = snap_from_fold(sheet, phase, fold.snap.phase,
                                      replace(located, crossing=crossing),
                                      newton_options=job.newton_options,
@@ -581,6 +619,39 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
     return Fold(snap, w_fold, v, landing, before, fold.before_load)
 
 
+def _landing_followed_to_fine_load(cproblem, fold, phase, lam, job, loose):
+    """The coarse landing carried to the fine mesh at the coarse fold's load
+    (where it is an equilibrium of the coarse sheet, so Newton from it
+    converges on the fine one) and followed along its branch to the fine fold
+    load ``lam`` by the load path's driver (where the fold loads of the two
+    meshes differ by more than Newton's reach on a steep landing branch): a
+    NewtonResult (full dofs), not converged where the branch does not reach
+    ``lam`` (it turns before it: no landing there)."""
+    fine = phase.sheet.problem
+    exact = replace(job.newton_options, linearization="exact")
+    sheet = SheetLoadProblem(fine, job.linear, job.stats, exact)
+    lam_c = float(fold.snap.load)
+    kappa, g = phase.loads([lam_c])
+    w = transfer(cproblem, fold.landing, fine)
+    w[fine.clamp_dofs] = fine.clamp_values(kappa)
+    res = newton(fine, w, g, job.linear, loose, job.stats)
+    if not res.converged:
+        return res
+    counter = Counting(LoadPhase(sheet, phase.start, phase.start + phase.rate))
+    scale = max(1.0, fine.sheet.length)
+    tol = newton_tolerances(job.newton_options, job.step_options.intermediate_utol(scale))
+    before = counter.stats()
+    branch = ramp(counter, res.w[fine.free], [lam_c], "lam", float(lam),
+                  rule=job.step_options.rule(scale), tol=tol, end_tol=tol)
+    job.stats.newton_iterations += (counter.stats() - before).newton_iterations
+    log.debug("the carried landing followed from %.6g to %.6g: %s", lam_c, lam,
+              "reached" if branch.completed else branch.reason)
+    if not branch.completed:
+        return NewtonResult(res.w, False, res.iterations, f"its branch: {branch.reason}")
+    return NewtonResult(sheet.full(branch.points[-1].u, phase.loads([lam])), True,
+                        res.iterations)
+
+
 def _same_fine_fold(located, phase_name, folds, ptol) -> bool:
     """Whether the fine fold ``located`` is the one the sheet last snapped
     from on the fine mesh (the same phase, the load within the two locations'
@@ -589,8 +660,12 @@ def _same_fine_fold(located, phase_name, folds, ptol) -> bool:
     if not folds:
         return False
     last = folds[-1].snap
-    return last.phase == phase_name and \
-        abs(located.value - last.load) <= 2.0 * ptol * max(1.0, abs(last.load))
+    return last.phase == phase_name and _same_load(located.value, last.load, ptol)
+
+
+def _same_load(a, b, ptol) -> bool:
+    """Whether two fold loads located to ``ptol`` each are one fold's."""
+    return abs(a - b) <= 2.0 * ptol * max(1.0, abs(b))
 
 
 def _path_from_coarse_fold(cproblem, fold, sheet, phase, job):

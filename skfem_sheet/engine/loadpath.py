@@ -326,17 +326,23 @@ def _turn_ahead(counter, i, u, p, t, h, tol, check_inertia, max_corrections=24):
     branch's direction) within about the arclength ``2 h``: pseudo-arclength
     corrections along the tangent of each point (not a secant), to ``tol``,
     halved where they fail (the section lies past a sharp turn, which the
-    branch does not reach), until the tangent's load component changes sign;
+    branch does not reach; a correction is given up once its first Newton
+    step is longer than the section's distance, the first-order estimate of
+    how far it must go), until the tangent's load component changes sign;
     then the fold between those two points
     (:func:`~skfem_sheet.engine.fold.fold_between`).  None if no sign
     change within ``max_corrections`` corrections."""
     h_min = h * 2.0**-14
     for _ in range(max_corrections):
         try:
-            res = arclength_point(counter, i, t, u, p, h, tol)
+            res = arclength_point(counter, i, t, u, p, h,
+                                  replace(tol, max_correction=min(tol.max_correction, h)))
             t_new = tangent_at(counter, res, t) if res.converged else None
         except EngineFailure:
             res, t_new = None, None
+        log.debug("turn ahead of %.8g: step %.3g %s%s", p[i], h,
+                  "failed" if t_new is None else f"to {res.p[i]:.8g}, t_p {t_new[1]:.3g}",
+                  "" if res is None else f" ({res.iterations} iterations)")
         if t_new is None:
             h *= 0.5
             if h < h_min:
@@ -349,6 +355,24 @@ def _turn_ahead(counter, i, u, p, t, h, tol, check_inertia, max_corrections=24):
                 return None
         u, p, t = res.u, res.p, t_new
     return None
+
+
+def _on_the_branch(counter, point, tol, end_tol) -> bool:
+    """Whether a point accepted to the loose tolerance ``tol`` is a point of
+    the branch: Newton from it converges to ``end_tol`` within ``tol.utol``
+    of it (past a fold, where no equilibrium is near, it does not)."""
+    try:
+        res = correct(counter, point.u, point.p, plain_linearization(counter), end_tol)
+    except EngineFailure:
+        return False
+    return bool(res.converged and counter.correction_norm(res.u - point.u) <= tol.utol)
+
+
+def _behind(fold, p_last, direction, fold_tol) -> bool:
+    """Whether ``fold`` lies behind ``p_last`` in the direction of the ramp
+    (by more than the fold tolerance): not the turn of a branch that went
+    on to ``p_last``."""
+    return (fold.value - float(p_last)) * direction < -fold_tol * max(1.0, abs(fold.value))
 
 
 def _fold_where_stalled(counter, points, i, direction, tol, end_tol, fold_tol, k,
@@ -380,7 +404,7 @@ def _fold_where_stalled(counter, points, i, direction, tol, end_tol, fold_tol, k
         except EngineFailure:
             res = None
         if res is None or not res.converged or \
-                counter.correction_norm(res.u - pt.u) > tol.utol:
+                counter.correction_norm(res.u - pt.u) > tol.utol:  # (as _on_the_branch)
             log.debug("stalled: the point at %.6g is not on the branch", pt.p[i])
             reach = pt
             continue
@@ -399,9 +423,8 @@ def _fold_where_stalled(counter, points, i, direction, tol, end_tol, fold_tol, k
             return None, f"no turn of the load found ahead of {pt.p[i]:.6g}"
         log.debug("stalled: fold from %.6g at %.8g, side %s, crossing %s", pt.p[i], fold.value,
                   fold.side, fold.crossing)
-        ahead = (fold.value - float(pt.p[i])) * direction >= -fold_tol * max(1.0, abs(fold.value))
         lo, hi = sorted(fold.crossing) if fold.crossing is not None else (None, None)
-        if not ahead or fold.side != -direction or lo is None or hi - lo != 1 \
+        if _behind(fold, pt.p[i], direction, fold_tol) or fold.side != -direction or lo is None or hi - lo != 1 \
                 or (k is not None and lo != k):
             return None, (f"the turn located ahead of {pt.p[i]:.6g}, at {fold.value:.6g} (side "
                           f"{fold.side}, inertia {fold.crossing}), is not where the branch "
@@ -537,6 +560,24 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             nodes.append((points[-1].s + chord, res.u, float(res.p[i])))
             f0 = counter.stats().factorizations
             fold = _locate(counter, i, p, nodes, end_tol, check_inertia, fold_tol)
+            if fold is not None and _behind(fold, p[i], direction, fold_tol) \
+                    and not _on_the_branch(counter, points[-1], tol, end_tol):
+                # the last point, accepted to the loose tolerance of the points
+                # on the way, lies past the fold (no equilibrium there): the
+                # fold is the branch's turn, and the point is withdrawn
+                points.pop()
+                return "fold", replace(fold, crossing=fold.crossing or (k, k_new))
+            if fold is None or _behind(fold, p[i], direction, fold_tol):
+                # not located from the interpolated turn, or a fold behind the
+                # last point (the branch reached p: another fold, where the
+                # interpolated start led): the turn lies within the step from
+                # the last point, approached along the branch
+                log.debug("fold %s: the turn approached along the branch from %.8g",
+                          "not located" if fold is None else f"located at {fold.value:.8g}, "
+                          "behind the last point", p[i])
+                fold = _turn_ahead(counter, i, u, p, t, 0.5 * chord, end_tol, check_inertia)
+                if fold is not None and _behind(fold, p[i], direction, fold_tol):
+                    fold = None
             log.debug("fold located with %d factorisations: %s",
                       counter.stats().factorizations - f0, None if fold is None else fold.value)
             if fold is not None and fold.crossing is None:
