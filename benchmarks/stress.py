@@ -42,8 +42,27 @@ solve's.
     python benchmarks/stress.py --planforms --n 100 --seed 56 --hmax 0.1 --out P.jsonl
     python benchmarks/stress.py --planforms --n 100 --seed 56 --hmax 0.05 --limit 20 --out Q.jsonl
     python benchmarks/stress.py --planforms --n 100 --seed 56 --full-check 12 --out F.jsonl
+
+``--starts``: the default start against the load path (``start="path"``) on
+given planform sheets, each solve in a fresh process (its peak resident
+memory, ``VmHWM``, its own; threads as given to this script): the same end
+states and snaps (d to 1e-6, phase and load to 1e-4), the fine mesh's
+factorisations, the coarse work, wall, peak memory and the antisymmetric
+stability check's share of the wall (timed once more after the solve).  ``--sheet SPEC``
+(repeated) is the JSON of a sample point of ``--planforms`` (``length``,
+``curvature`` and a ``planform`` description such as ``{"kind": "leaf", "c1":
+0.3, "c2": 0.35}``), solved along ``--paths``; ``--issue-sheets`` adds the three
+sheets of issue 56 (the flare p = 1 + 0.2 xi^2, L 1.6, a/R 3; the leaf p = 1 +
+0.5 xi - 0.9 xi^2, L 2, a/R 4; the flare of tip 1.114, L 2.186, a/R 5.476; all
+curvature-first) and issue 55's rectangle (L 1.5702, a/R 5, gravity-first).
+
+    python benchmarks/stress.py --starts --issue-sheets --hmax 0.1 --json S.json
+    python benchmarks/stress.py --starts --hmax 0.03 --sheet '{"length": 1.5, ...}'
 """
+import json
+import os
 import statistics
+import subprocess
 import sys
 import time
 import traceback
@@ -52,6 +71,8 @@ import numpy as np
 
 from skfem_sheet import Sheet, solve
 from skfem_sheet.params import Planform
+
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 from harness import (
     add_shard_option,
@@ -330,6 +351,99 @@ def planform_report(recs, full_check=False):
     return 1 if bad else 0
 
 
+# -- the default start against the path, in fresh processes (issue 56) ------------------
+#: Issue 56's three sheets and issue 55's rectangle, each on its path.
+ISSUE_SHEETS = [
+    (dict(length=1.6, curvature=3.0, planform={"kind": "flare", "c": 0.2}), "curvature-first"),
+    (dict(length=2.0, curvature=4.0, planform={"kind": "leaf", "c1": 0.5, "c2": 0.9}),
+     "curvature-first"),
+    (dict(length=2.186, curvature=5.476, planform={"kind": "flare", "c": 0.114}),
+     "curvature-first"),
+    (dict(length=1.5702, curvature=5.0, planform={"kind": "trapezoid", "tip_width": 1.0}),
+     "gravity-first"),
+]
+
+CHILD = """
+import json, sys, time
+from harness import peak_rss_bytes
+from stress import planform_sheet
+from skfem_sheet import solve
+spec = json.loads(sys.argv[1])
+t = time.perf_counter()
+r = solve(planform_sheet(spec["sheet"]), path=spec["path"], hmax=spec["hmax"],
+          start=spec["start"], on_failure="return")
+call = time.perf_counter() - t
+peak = peak_rss_bytes() / 1024**3
+anti = None
+if r.converged:  # the antisymmetric check once more, timed on its own (in the solve's wall)
+    from skfem_sheet.analyses.stability import antisymmetric_stability
+    t = time.perf_counter()
+    antisymmetric_stability(r.problem, r.w, K=r.problem.tangent(r.w))
+    anti = time.perf_counter() - t
+print(json.dumps(dict(converged=r.converged, message=r.message, deflection=r.deflection,
+                      stable=r.stable, negative_eigenvalues=list(r.negative_eigenvalues or ()),
+                      snaps=[s.to_json() for s in r.snaps], factorizations=r.factorizations,
+                      newton_iterations=r.newton_iterations,
+                      coarse_factorizations=r.coarse_factorizations,
+                      fallback=r.coarse_fallback, wall_s=r.wall_time_s, call_s=call,
+                      antisymmetric_s=anti, dofs=r.dofs, peak_gb=peak), default=float))
+"""
+
+
+def run_start(sheet, path, hmax, start):
+    """One solve of ``--starts`` in a fresh process (in this folder, so that
+    the child imports this script's modules): its record."""
+    spec = dict(sheet=dict(dict(thickness=0.03, modulus=735.0), **sheet), path=path, hmax=hmax,
+                start=start)
+    out = subprocess.run([sys.executable, "-c", CHILD, json.dumps(spec)], cwd=HERE,
+                         capture_output=True, text=True, check=False)
+    if out.returncode:
+        return dict(converged=False, message=f"crash: {out.stderr.strip().splitlines()[-1:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def same_states(a, b):
+    """Both converged to one end state with the same snaps."""
+    if not (a.get("converged") and b.get("converged")):
+        return False
+    sa = [(s["phase"], s["load"]) for s in a["snaps"]]
+    sb = [(s["phase"], s["load"]) for s in b["snaps"]]
+    return (abs(a["deflection"] - b["deflection"]) <= 1e-6 and len(sa) == len(sb)
+            and all(x[0] == y[0] and abs(x[1] - y[1]) <= 1e-4 for x, y in zip(sa, sb)))
+
+
+def compare_starts(args):
+    """``--starts`` (see the module)."""
+    todo = [(json.loads(s), p) for s in args.sheet for p in args.paths.split(",")]
+    if args.issue_sheets:
+        todo += ISSUE_SHEETS
+    recs, agree = [], 0
+    print(f"{'sheet':58s} {'path':16s} {'start':6s} {'d/a':>11s} {'fine':>5s} {'coarse':>6s} "
+          f"{'wall s':>7s} {'peak GB':>7s} {'anti':>5s}  snaps (phase, load)   ('anti': the "
+          f"antisymmetric check's time over the solve's wall)")
+    for sheet, path in todo:
+        pair = {start: run_start(sheet, path, args.hmax, start) for start in ("coarse", "path")}
+        ok = same_states(pair["coarse"], pair["path"])
+        agree += ok
+        name = json.dumps(dict(sheet), separators=(",", ":"))[:58]
+        for start, r in pair.items():
+            d = f"{r['deflection']:11.7f}" if r.get("converged") else "     failed"
+            snaps = [(s["phase"][:4], round(s["load"], 6)) for s in r.get("snaps", [])]
+            anti = r.get("antisymmetric_s")
+            share = f"{anti / r['wall_s']:5.2f}" if anti and r.get("wall_s") else "    -"
+            print(f"{name:58s} {path:16s} {start:6s} {d} {r.get('factorizations', 0):5d} "
+                  f"{r.get('coarse_factorizations', 0):6d} {r.get('wall_s', 0):7.1f} "
+                  f"{r.get('peak_gb', 0):7.3f} {share}  {snaps} "
+                  f"{r.get('fallback') or r.get('message')}")
+        print(f"{'':58s} {'':16s} {'same end state and snaps' if ok else 'DIFFER'}")
+        recs.append(dict(sheet=sheet, path=path, hmax=args.hmax, **pair, agree=ok))
+    print(f"\n{agree} of {len(todo)} pairs agree (d to 1e-6, the same snaps to 1e-4 in load)")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(recs, f, indent=1, default=float)
+    return 0 if agree == len(todo) else 1
+
+
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("--n", type=int, default=100)
@@ -346,9 +460,20 @@ def main(argv=None):
                     help="with --planforms: only the first LIMIT sheets of the sample")
     ap.add_argument("--full-check", type=int, default=0, metavar="K",
                     help="with --planforms: the first K sheets also as the whole sheet")
+    ap.add_argument("--starts", action="store_true",
+                    help="the default start against the path on --sheet / --issue-sheets")
+    ap.add_argument("--sheet", action="append", default=[],
+                    help="with --starts: a planform sample point's JSON (repeat)")
+    ap.add_argument("--paths", default="curvature-first,gravity-first",
+                    help="with --starts: the paths of the --sheet sheets")
+    ap.add_argument("--issue-sheets", action="store_true",
+                    help="with --starts: issue 56's three sheets and issue 55's rectangle")
+    ap.add_argument("--json", default=None, help="with --starts: write the records here")
     ap.add_argument("--compare", nargs=2, metavar=("BEFORE.jsonl", "AFTER.jsonl"),
                     help="pair two journals solve by solve instead (exit 1 if any differs)")
     args = ap.parse_args(argv)
+    if args.starts:
+        return compare_starts(args)
     if args.compare:
         return compare_journals(*args.compare)
     shard = parse_shard(args.shard)

@@ -157,6 +157,7 @@ class _SheetNewton(Problem):
         self.exact = True  # whether the last factorisation is the exact tangent's
         self.last_correction = np.inf  # the last correction's norm
         self.chord = None  # (state, correction): a chord step at that state
+        self.monotone = False  # stop where a correction outgrows the last
 
     def evaluate(self, w):
         """The residual at ``w`` if ``w`` is admissible (no inverted element,
@@ -211,7 +212,11 @@ class _SheetNewton(Problem):
             raise EngineFailure("NaN in the Newton increment")
         du = np.zeros_like(w)
         du[self.free] = delta
-        self.last_correction = self.correction_norm(du)
+        norm = self.correction_norm(du)
+        if self.monotone and norm > self.last_correction:
+            raise EngineFailure(f"not contracting (a correction of {norm:.3g} after "
+                                f"{self.last_correction:.3g})")
+        self.last_correction = norm
         return rn, du, np.zeros(1), self.solver, None
 
     def converged(self, w, p, fact, extra):
@@ -244,7 +249,8 @@ class _SheetNewton(Problem):
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-           max_first_increment=np.inf, reference=None, exact_on_return=True) -> NewtonResult:
+           max_first_increment=np.inf, reference=None, exact_on_return=True,
+           monotone: bool = False) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
@@ -297,6 +303,17 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         the solver holds the Hessian for an inertia check.  ``False`` where
         no inertia is read before the next solve (an intermediate load step,
         whose tangent predictor may use the MIP factorisation).
+    monotone : bool
+        Stop as "not contracting" where a correction is larger than the one
+        before it: Deuflhard's monotonicity test (*Newton Methods for
+        Nonlinear Problems*, Springer 2004, sec. 3.2: a contraction of one or
+        more says the iterate left Newton's basin).  For a start whose
+        caller has a globalised fallback (a state carried from another mesh,
+        settled by pseudo-transient continuation where Newton fails), so that
+        a failing start costs two factorisations, not ``max_iterations``.
+        Off by default (a thin sheet's bending step can leave a membrane
+        residual that makes the next correction larger on the way to
+        convergence).
 
     Returns
     -------
@@ -307,6 +324,7 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     """
     sheet = _SheetNewton(problem, g, solver, options, stats)
     sheet.previous = reference
+    sheet.monotone = bool(monotone)
     w = np.array(w, dtype=float)
     r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1

@@ -17,7 +17,13 @@ a :class:`Reached` (the end state at full load and its history):
     is the other fold of a fold pair the fine mesh has there, where a branch
     begins, and the load path runs on the fine mesh instead.
     A fine fold inside its phase: the fine sheet snaps there too (its fold
-    load and deflections are the fine mesh's).  A fine fold beyond the phase's
+    load and deflections are the fine mesh's), once however many coarse folds
+    lead to it (a snap in steps on the coarse mesh is one on the fine mesh:
+    the sheet lands where the last of them landed, and a carried landing that
+    Newton takes back to the fine fold state is no landing).  A coarse fold
+    the fine mesh has not nearby (not located, or located where the load
+    turns up) resumes the fine path from the coarse branch's last point
+    before it.  A fine fold beyond the phase's
     full load: it does not, and the fine branch before the fold is finished
     at full load of that phase (predicted from the fold's quadratic normal
     form, solved by Newton) and the load path goes on from there on the fine
@@ -440,40 +446,51 @@ class CoarseStart:
         job.report(share + (1.0 - share) * len(coarse.folds) / (len(coarse.folds) + 1))
         w0 = transfer(cproblem, coarse.w, fine)
         w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
-        res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
+        # (monotone: a start outside Newton's basin is settled below, after two
+        # factorisations instead of all of Newton's)
+        res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats,
+                     monotone=True)
         log.debug("fine Newton from the coarse end state: %s %s corrections %s", res.converged,
                   res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
-        if not res.converged and folds:
-            # a snap was carried: the fine sheet is on its landing state at the
-            # last fold's load, and the load path goes on from there on the
-            # fine mesh (not a settle from the coarse end state: the distance
-            # rule below checks the end state only, not that the fine sheet
-            # came there on the branch it landed on)
-            log.debug("fine Newton from the coarse end state failed (%s): the fine path from "
-                      "the last landing", res.reason)
-            last = folds[-1]
-            ilast = names.index(last.snap.phase)
-            out = _path(job, w0=last.landing, resume=(last.snap.phase, last.snap.load))
-            if not out.converged:
-                return fall_back(f"fine Newton from the coarse end state failed after a carried "
-                                 f"snap ({res.reason}), and so did the fine path from the "
-                                 f"landing: {out.reason}", seen)
-            return after_coarse(out, [x for x in coarse.steps
-                                      if (names.index(x[0]), x[1]) <= (ilast, last.snap.load)])
         if not res.converged:
             # outside Newton's basin (measured: the long sheets' end states
             # carried from hmax 0.2 to 0.1, 0.05 apart, Newton diverging):
             # settled by the pseudo-transient, drawn to stable states, and
-            # accepted by the same rule as Newton's
+            # accepted by the same rule as Newton's (the distance from the
+            # carried state: as Newton's, a check of the end state, which
+            # also keeps it on the coarse path's branch where the fine sheet
+            # is bistable, its states far apart)
             log.debug("fine Newton from the coarse end state failed (%s): settling", res.reason)
-            pt, res = settle(fine, w0, coarse.g, job.linear, job.newton_options,
-                             job.step_options, job.stats)
-            if res is None or not res.converged:
-                why = pt.reason if res is None else res.reason
+            pt, settled = settle(fine, w0, coarse.g, job.linear, job.newton_options,
+                                 job.step_options, job.stats)
+            why = pt.reason if settled is None else settled.reason
+            if settled is not None and settled.converged:
+                moved = float(np.abs(settled.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
+                why = "" if not job.step_options.rule(scale).rejects(moved) else \
+                    f"it settled {moved:.3g} away (another branch)"
+            if not why:
+                res = settled
+                iterations += pt.iterations + settled.iterations
+            elif folds:
+                # a snap was carried: the fine sheet is on its landing state at
+                # the last fold's load, and the load path goes on from there on
+                # the fine mesh
+                log.debug("the settle from the coarse end state failed (%s): the fine path "
+                          "from the last landing", why)
+                last = folds[-1]
+                ilast = names.index(last.snap.phase)
+                out = _path(job, w0=last.landing, resume=(last.snap.phase, last.snap.load))
+                if not out.converged:
+                    return fall_back(f"fine Newton from the coarse end state failed after a "
+                                     f"carried snap ({res.reason}), and so did the settle "
+                                     f"({why}) and the fine path from the landing: "
+                                     f"{out.reason}", seen)
+                return after_coarse(out, [x for x in coarse.steps if (names.index(x[0]), x[1])
+                                          <= (ilast, last.snap.load)])
+            else:
                 return fall_back(f"fine Newton from the coarse end state failed, and so did "
                                  f"the settle from it: {why}", seen)
-            iterations += pt.iterations + res.iterations
         moved = float(np.abs(res.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
         if job.step_options.rule(scale).rejects(moved):
             return fall_back(f"fine Newton moved {moved:.3g} from the coarse end state, more "
