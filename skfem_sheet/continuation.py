@@ -24,7 +24,12 @@ the minimally augmented system; the sheet then **snaps**: it is moved off the
 fold along the null vector, downhill in energy, settled at the fold load by
 pseudo-transient continuation onto the stable state there, and the ramp
 goes on from that state (:class:`Snap` records it).  A branch that is merely
-steep has no turning point, is followed, and records no snap.
+steep has no turning point, is followed, and records no snap.  A turn too
+sharp for the smallest step is located where the steps stall
+(:func:`~skfem_sheet.engine.loadpath.ramp`); a snap must move the state (a
+settle that comes back to its own fold is tried on the fold's other side) and
+leaves its fold for good (a branch that leads back to a fold the path
+snapped from ends the path, said as such).
 
 The end state at full load is verified: a stable equilibrium (inertia of
 the constrained tangent), else the path fails and says so.

@@ -15,8 +15,7 @@ a :class:`Reached` (the end state at full load and its history):
     The fine fold must be of the coarse one's kind, a fold where the load
     turns back (the branch's solutions below it); one where the load turns up
     is the other fold of a fold pair the fine mesh has there, where a branch
-    begins, and the load path runs on the fine mesh instead.
-    A fine fold inside its phase: the fine sheet snaps there too (its fold
+    begins, and nothing snaps there.  A fine fold inside its phase: the fine sheet snaps there too (its fold
     load and deflections are the fine mesh's), once however many coarse folds
     lead to it (a snap in steps on the coarse mesh is one on the fine mesh:
     the sheet lands where the last of them landed, and a carried landing that
@@ -28,14 +27,17 @@ a :class:`Reached` (the end state at full load and its history):
     at full load of that phase (predicted from the fold's quadratic normal
     form, solved by Newton) and the load path goes on from there on the fine
     mesh.  Without (more) folds the coarse end state is transferred and
-    finished by Newton at full load (where Newton leaves its basin and no
-    snap was carried, by the pseudo-transient settle of a snap and Newton,
-    :func:`~skfem_sheet.continuation.settle`; after a carried snap, by the
-    load path on the fine mesh from the last snap's landing state),
-    accepted by the load path's step rule (its distance from the carried
-    state at most four times the nominal corrector distance: it stayed on
-    the coarse path's branch) and verified stable; otherwise the load path
-    runs on the fine mesh instead (the record says why).
+    finished by Newton at full load (where Newton leaves its basin, seen
+    from its corrections no longer shrinking, by the pseudo-transient settle
+    of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
+    that fails after a carried snap, by the load path on the fine mesh from
+    the last snap's landing state), accepted by the load path's step rule
+    (its distance from the carried state at most four times the nominal
+    corrector distance: it stayed on the coarse path's branch) and verified
+    stable; otherwise the load path runs on the fine mesh instead (the
+    record says why).  On a curved outline the two meshes' polygons differ
+    by their chord errors, and the states are carried between them as
+    :func:`~skfem_sheet.analyses.transfer.transfer` says.
 
 The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
 at most 0.2 (:meth:`CoarseStart.coarse_mesh`): hmax 0.1 for the paper's

@@ -130,6 +130,22 @@ def test_a_fold_sharper_than_the_smallest_step_is_located_where_the_steps_stall(
     assert all(float(pt.p[0]) <= fold.value for pt in b.points)  # none past it is kept
 
 
+def test_a_branch_point_is_named_where_the_steps_stall_at_it():
+    """A pitchfork, ``x = lam``, ``(1 - lam) y + y^3 = 0``: on the branch y = 0
+    one eigenvalue crosses zero at lam = 1 and the load does not turn, so no
+    step across it is accepted (an inertia change without a turn); the ramp
+    ends there and says that it is a branch point, bracketing it, not a
+    fold."""
+    pitchfork = FunctionProblem(
+        lambda u, p: np.array([u[0] - p[0], (1 - p[0]) * u[1] + u[1] ** 3]),
+        lambda u, p: np.diag([1.0, 1 - p[0] + 3 * u[1] ** 2]), ("lam",))
+    b = ramp(pitchfork, np.zeros(2), np.zeros(1), "lam", 2.0, rule=StepRule(delta=0.01))
+    assert not b.completed and b.fold is None
+    assert b.reason.startswith("a branch point between p = ")
+    lo, hi = (float(x) for x in b.reason.split("p = ")[1].split(":")[0].split(" and "))
+    assert lo < 1.0 < hi and hi - lo < 1e-3
+
+
 def test_the_step_rule_grows_and_cuts_by_the_corrector_distance():
     rule = StepRule(initial=0.1, delta=0.01, maximum=1.0)
     assert rule.next_step(0.1, 0.01) == pytest.approx(0.1)        # nominal: the same

@@ -51,6 +51,21 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   none, and ends the branch where the load turns back with one eigenvalue
   crossing.
 
+- **turns too sharp for the steps**: where the branch turns back within
+  less than the smallest step (a hairpin), every step beyond the turn fails,
+  and a point accepted to the loose tolerance of the points on the way can
+  even lie past it, where Newton's iterates wander about the fold state.  A
+  point's error must therefore be at most a tenth of its distance from the
+  last point (:class:`SecantTest`); a turn located behind the last point (or
+  not located from the interpolated turn) is approached along the branch
+  within the step; and where the steps shrink below the minimum, the last
+  points are checked as equilibria to the end tolerance (those that are not
+  are dropped) and the turn ahead of the last point of the branch is
+  approached along its tangent and located (:func:`_fold_where_stalled`),
+  one eigenvalue crossing confirmed.  A stall without such a turn ahead is
+  reported as a failure that says what was found (an inertia change without
+  a turn: a branch point).
+
 The driver ends at the fold: what happens there (a snap onto another branch)
 is the caller's.
 
@@ -587,6 +602,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             return (f"the parameter turned but the inertia went from {k} to {k_new} "
                     f"(not one eigenvalue crossing)"), None
         if k is not None and k_new is not None and k_new != k:
+            without_turn.append((float(p[i]), float(res.p[i]), k, k_new))
             return f"the inertia changed from {k} to {k_new} without a turning point", None
         return "", (du / chord, dq / chord, chord, k_new)  # the secant
 
@@ -656,6 +672,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         return ""
 
     h, retried, candidate, natural_ok = rule.initial, False, None, True
+    without_turn = []  # (p, p of the step, k, k_new): inertia changes without a turn
     while True:
         if (stop - points[-1].p[i]) * direction <= 1e-12 * max(1.0, abs(stop)):
             return finish(completed=True)
@@ -717,8 +734,16 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
                     del points[kept:]
                     return finish(reason=f"fold at {fold.value:.10g} (where the steps stalled)",
                                   folds=(fold,))
-                return finish(reason=f"step below {rule.minimum:g} at p = "
-                              f"{points[-1].p[i]:.6g} ({why}); {kept}")
+                last = float(points[-1].p[i])
+                near = [x for x in without_turn if x[0] == last]
+                if near:  # an eigenvalue crosses zero ahead, and the load does not turn
+                    a, b, k0, k1 = near[-1]
+                    return finish(reason=f"a branch point between p = {a:.6g} and {b:.6g}: "
+                                  f"the inertia changes from {k0} to {k1} there without a turn "
+                                  f"of the load (one eigenvalue crosses zero; the load path does "
+                                  f"not switch branches there)")
+                return finish(reason=f"step below {rule.minimum:g} at p = {last:.6g} ({why}); "
+                              f"{kept}")
             continue
         # the next step does not grow after a rejection (this one was just
         # found too long), nor after a correction that used more than half of
