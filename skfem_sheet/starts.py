@@ -15,15 +15,15 @@ a :class:`Reached` (the end state at full load and its history):
     The fine fold must be of the coarse one's kind, a fold where the load
     turns back (the branch's solutions below it); one where the load turns up
     is the other fold of a fold pair the fine mesh has there, where a branch
-    begins, and nothing snaps there.  A fine fold inside its phase: the fine sheet snaps there too (its fold
-    load and deflections are the fine mesh's), once however many coarse folds
-    lead to it (a snap in steps on the coarse mesh is one on the fine mesh:
-    the sheet lands where the last of them landed, and a carried landing that
-    Newton takes back to the fine fold state is no landing).  A coarse fold
-    the fine mesh has not nearby (not located, or located where the load
-    turns up) resumes the fine path from the coarse branch's last point
-    before it.  A fine fold beyond the phase's
-    full load: it does not, and the fine branch before the fold is finished
+    begins, and nothing snaps there.  A fine fold inside its phase: the fine
+    sheet snaps there too (its fold load and deflections are the fine
+    mesh's), once however many coarse folds lead to it (a snap in steps on
+    the coarse mesh is one on the fine mesh: the sheet lands where the last of
+    them landed, and a carried landing that Newton takes back to the fine
+    fold state is no landing).  A coarse fold the fine mesh has not nearby
+    (not located, or located where the load turns up) resumes the fine path
+    from the coarse branch's last point before it.  A fine fold beyond the
+    phase's full load: it does not, and the fine branch before the fold is finished
     at full load of that phase (predicted from the fold's quadratic normal
     form, solved by Newton) and the load path goes on from there on the fine
     mesh.  Without (more) folds the coarse end state is transferred and
@@ -394,8 +394,9 @@ class CoarseStart:
                 out, more = _path_from_coarse_fold(cproblem, fold, sheet, phase, job)
                 if out is None:
                     return fall_back(f"{why}, and {more}", seen)
+                resumed = fold.before_load if fold.before is not None else fold.snap.load
                 return after_coarse(out, [x for x in coarse.steps if (names.index(x[0]), x[1])
-                                          <= (iphase, fold.snap.load)])
+                                          <= (iphase, resumed)])
             lam = located.value
             if _same_fine_fold(located, name, folds, job.step_options.fold_tolerance):
                 # two coarse folds close together, one on the fine mesh: the
@@ -448,10 +449,10 @@ class CoarseStart:
         job.report(share + (1.0 - share) * len(coarse.folds) / (len(coarse.folds) + 1))
         w0 = transfer(cproblem, coarse.w, fine)
         w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
-        # (monotone: a start outside Newton's basin is settled below, after two
-        # factorisations instead of all of Newton's)
+        # (contracting: a start outside Newton's basin is settled below, after
+        # two or three factorisations instead of all of Newton's)
         res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats,
-                     monotone=True)
+                     contracting=True)
         log.debug("fine Newton from the coarse end state: %s %s corrections %s", res.converged,
                   res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
