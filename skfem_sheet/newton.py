@@ -157,8 +157,6 @@ class _SheetNewton(Problem):
         self.exact = True  # whether the last factorisation is the exact tangent's
         self.last_correction = np.inf  # the last correction's norm
         self.chord = None  # (state, correction): a chord step at that state
-        self.contracting = False  # stop where a correction outgrows the first
-        self.first_correction = None
 
     def evaluate(self, w):
         """The residual at ``w`` if ``w`` is admissible (no inverted element,
@@ -213,13 +211,7 @@ class _SheetNewton(Problem):
             raise EngineFailure("NaN in the Newton increment")
         du = np.zeros_like(w)
         du[self.free] = delta
-        norm = self.correction_norm(du)
-        if self.first_correction is None:
-            self.first_correction = norm
-        elif self.contracting and norm > self.first_correction:
-            raise EngineFailure(f"not contracting (a correction of {norm:.3g} after a first "
-                                f"one of {self.first_correction:.3g})")
-        self.last_correction = norm
+        self.last_correction = self.correction_norm(du)
         return rn, du, np.zeros(1), self.solver, None
 
     def converged(self, w, p, fact, extra):
@@ -252,8 +244,7 @@ class _SheetNewton(Problem):
 
 
 def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
-           max_first_increment=np.inf, reference=None, exact_on_return=True,
-           contracting: bool = False) -> NewtonResult:
+           max_first_increment=np.inf, reference=None, exact_on_return=True) -> NewtonResult:
     """Solve ``r(w; g) = 0`` for the free dofs of ``w`` (fixed dofs are kept).
 
     The engine's corrector (:func:`skfem_sheet.engine.corrector.correct`) on
@@ -306,19 +297,6 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
         the solver holds the Hessian for an inertia check.  ``False`` where
         no inertia is read before the next solve (an intermediate load step,
         whose tangent predictor may use the MIP factorisation).
-    contracting : bool
-        Stop as "not contracting" where a correction, from the second on, is
-        larger than the first: the iterate is then further from the solution
-        it approaches than the start was, outside the basin where the start's
-        linearisation leads (the affine-covariant reading of Newton's
-        convergence, Deuflhard, *Newton Methods for Nonlinear Problems*,
-        Springer 2004, sec. 2.1; measured against the first correction, not
-        the last, because a thin sheet's bending step can leave a membrane
-        residual that makes the next correction larger than the last on the
-        way to convergence).  For a start whose caller has a globalised
-        fallback (a state carried from another mesh, settled by
-        pseudo-transient continuation where Newton fails), so that a failing
-        start costs two or three factorisations, not ``max_iterations``.
 
     Returns
     -------
@@ -329,7 +307,6 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     """
     sheet = _SheetNewton(problem, g, solver, options, stats)
     sheet.previous = reference
-    sheet.contracting = bool(contracting)
     w = np.array(w, dtype=float)
     r, Jmin = timed(stats, "assembly_s", problem.residual, w, g)
     stats.residual_evaluations += 1

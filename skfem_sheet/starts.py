@@ -27,9 +27,8 @@ a :class:`Reached` (the end state at full load and its history):
     at full load of that phase (predicted from the fold's quadratic normal
     form, solved by Newton) and the load path goes on from there on the fine
     mesh.  Without (more) folds the coarse end state is transferred and
-    finished by Newton at full load (where Newton leaves its basin, seen
-    from its corrections no longer shrinking, by the pseudo-transient settle
-    of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
+    finished by Newton at full load (where Newton leaves its basin, by the
+    pseudo-transient settle of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
     that fails after a carried snap, by the load path on the fine mesh from
     the last snap's landing state), accepted by the load path's step rule
     (its distance from the carried state at most four times the nominal
@@ -449,10 +448,7 @@ class CoarseStart:
         job.report(share + (1.0 - share) * len(coarse.folds) / (len(coarse.folds) + 1))
         w0 = transfer(cproblem, coarse.w, fine)
         w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
-        # (contracting: a start outside Newton's basin is settled below, after
-        # two or three factorisations instead of all of Newton's)
-        res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats,
-                     contracting=True)
+        res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
         log.debug("fine Newton from the coarse end state: %s %s corrections %s", res.converged,
                   res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
