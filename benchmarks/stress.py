@@ -436,7 +436,7 @@ def compare_starts(args):
                   f"{r.get('peak_gb', 0):7.3f} {share}  {snaps} "
                   f"{r.get('fallback') or r.get('message')}")
         print(f"{'':58s} {'':16s} {'same end state and snaps' if ok else 'DIFFER'}")
-        recs.append(dict(sheet=sheet, path=path, hmax=args.hmax, **pair, agree=ok))
+        recs.append(dict(sheet=sheet, path=path, hmax=args.hmax, starts=pair, agree=ok))
     print(f"\n{agree} of {len(todo)} pairs agree (d to 1e-6, the same snaps to 1e-4 in load)")
     if args.json:
         with open(args.json, "w") as f:
