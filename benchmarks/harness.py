@@ -735,9 +735,13 @@ def both_paths(points):
 
 
 def solve_key(p, path):
-    """The journal key of one solve: the sheet's parameters and the load path, as JSON."""
-    return json.dumps([p["length"], p["tip_width"], p["curvature"], p["thickness"],
-                       p["modulus"], path])
+    """The journal key of one solve: the sheet's parameters and the load path,
+    as JSON (with the planform's description, ``p["planform"]``, where a
+    sample point has one)."""
+    key = [p["length"], p["tip_width"], p["curvature"], p["thickness"], p["modulus"], path]
+    if "planform" in p:
+        key.append(p["planform"])
+    return json.dumps(key)
 
 
 def coarse_fields(r):

@@ -24,7 +24,12 @@ the minimally augmented system; the sheet then **snaps**: it is moved off the
 fold along the null vector, downhill in energy, settled at the fold load by
 pseudo-transient continuation onto the stable state there, and the ramp
 goes on from that state (:class:`Snap` records it).  A branch that is merely
-steep has no turning point, is followed, and records no snap.
+steep has no turning point, is followed, and records no snap.  A turn too
+sharp for the smallest step is located where the steps stall
+(:func:`~skfem_sheet.engine.loadpath.ramp`); a snap must move the state (a
+settle that comes back to its own fold is tried on the fold's other side) and
+leaves its fold for good (a branch that leads back to a fold the path
+snapped from ends the path, said as such).
 
 The end state at full load is verified: a stable equilibrium (inertia of
 the constrained tangent), else the path fails and says so.
@@ -46,8 +51,8 @@ from .params import ParameterError, check_range
 from .sheet_engine import LoadPhase, SheetLoadProblem
 
 __all__ = ["PATHS", "StepOptions", "Snap", "Fold", "PathOutcome", "load_phases",
-           "follow_path", "snap_from_fold", "settle", "newton_tolerances", "end_state_verdict",
-           "elastica_state", "cylinder_state"]
+           "follow_path", "snap_from_fold", "landed_on_its_fold", "settle", "newton_tolerances",
+           "end_state_verdict", "elastica_state", "cylinder_state"]
 
 PATHS = ("curvature-first", "gravity-first")
 
@@ -179,12 +184,20 @@ class Fold:
         Null vector on the free dofs (largest displacement 1).
     landing : ndarray
         The full dof vector landed on (at the fold load).
+    before : ndarray or None
+        The full dof vector of the branch's last point before the fold (a
+        point of the branch away from the fold, where a finer mesh whose fold
+        lies elsewhere can take the branch up; None if not known).
+    before_load : float
+        Its load fraction ``lam`` (NaN if not known).
     """
 
     snap: Snap
     w: np.ndarray = field(repr=False)
     v: np.ndarray = field(repr=False)
     landing: np.ndarray = field(repr=False)
+    before: np.ndarray = field(default=None, repr=False)
+    before_load: float = float("nan")
 
 
 @dataclass
@@ -284,7 +297,18 @@ def settle(problem, w, g, solver, newton_options: NewtonOptions, step_options: S
                           negatives=_negatives)
     if not pt.converged:
         return pt, None
-    return pt, newton(problem, pt.w, g, solver, newton_options, stats)
+    res = newton(problem, pt.w, g, solver, newton_options, stats)
+    if res.converged:
+        return pt, res
+    # the loose settle stopped where the flow is slow but no equilibrium is
+    # near (Newton from there leaves): the flow goes on, drawn to the stable
+    # state, to the end tolerance (its last steps are Newton's)
+    more = pseudo_transient(problem, pt.w, g, solver, newton_options, stats,
+                            radius=0.1 * scale, negatives=_negatives)
+    pt = replace(more, iterations=pt.iterations + more.iterations)
+    if not more.converged:
+        return pt, None
+    return pt, newton(problem, more.w, g, solver, newton_options, stats)
 
 
 def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *,
@@ -322,21 +346,48 @@ def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *
         trial = [sheet.energy(fold.u + s * eps * v, (kappa, g))
                  for s in (1.0, -1.0)]
         sign = 1.0 if trial[0] <= trial[1] else -1.0
-    w0 = sheet.full(fold.u + sign * eps * v, (kappa, g))
-    pt, res = settle(problem, w0, g, solver, newton_options, step_options, stats)
-    if not pt.converged:
-        return None, f"the snap from the fold did not settle: {pt.reason}", pt.iterations
-    if not res.converged:
-        return None, f"the landed state did not converge: {res.reason}", pt.iterations
+    w_fold = sheet.full(fold.u, (kappa, g))
+    n_pt = 0
+    for side in (sign, -sign):
+        # the other side only where the settle came back to the fold itself
+        # (the sign of a, of a fold nearly flat in the load, pointed back onto
+        # the branch the fold ends)
+        w0 = sheet.full(fold.u + side * eps * v, (kappa, g))
+        pt, res = settle(problem, w0, g, solver, newton_options, step_options, stats)
+        n_pt += pt.iterations
+        if not pt.converged:
+            return None, f"the snap from the fold did not settle: {pt.reason}", n_pt
+        if not res.converged:
+            return None, f"the landed state did not converge: {res.reason}", n_pt
+        if not landed_on_its_fold(res.w, w_fold, problem.nu_dof, newton_options.utol):
+            break
+    else:
+        return None, "the snap from the fold settled back on the fold on both sides", n_pt
     stable, k = end_state_verdict(problem, solver, res.w, stats)
     if stable is False:
         return None, (f"the snap landed on an unstable state ({k} negative eigenvalue(s))"), \
-            pt.iterations
-    w_fold = sheet.full(fold.u, (kappa, g))
+            n_pt
     snap = Snap(name, float(fold.value), kappa, g, tip_deflection(problem, w_fold),
                 tip_deflection(problem, res.w), tuple(negative_eigenvalues),
                 float(problem.sheet_mesh.hmax))
-    return Fold(snap, w_fold, v, res.w), "", pt.iterations
+    return Fold(snap, w_fold, v, res.w), "", n_pt
+
+
+def _same_fold(snap, phase_name, load, ptol) -> bool:
+    """Whether the fold at ``load`` of the phase ``phase_name`` is the one of
+    ``snap`` (the load within the two locations' tolerance ``ptol`` each)."""
+    return snap.phase == phase_name and abs(load - snap.load) <= 2.0 * ptol * max(1.0, abs(load))
+
+
+def landed_on_its_fold(landing, w_fold, nu_dof: int, utol: float) -> bool:
+    """Whether a snap's landing is its own fold state: the largest
+    displacement between them at most twice the tolerance ``utol`` the
+    landing was solved to.  At the fold load the only equilibrium near the
+    fold state is the fold itself, a degenerate root, to which Newton
+    converges linearly with contraction 1/2 (its error then is up to its last
+    correction): a landing that close did not leave the fold, and is no
+    snap (the state did not move)."""
+    return float(np.abs(landing[:nu_dof] - w_fold[:nu_dof]).max()) <= 2.0 * utol
 
 
 def follow_path(problem, path: str, kappa: float, solver, *,
@@ -469,6 +520,13 @@ def follow_path(problem, path: str, kappa: float, solver, *,
                 out.reason = (f"{name} phase stopped at {lam:.4g} of its range "
                               f"(kappa={out.kappa:.4g}, g={out.g:.4g}): {branch.reason}")
                 return out
+            if any(_same_fold(s, name, fold.value, step_options.fold_tolerance)
+                   for s in out.snaps):
+                # a snap must leave its fold for good: a path led back to it
+                # would snap from it again and again
+                out.reason = (f"{name} phase, fold at {fold.value:.6g} of its range: the "
+                              f"branch the snap from it landed on leads back to it")
+                return out
             f0 = stats.factorizations
             found, why, n_pt = snap_from_fold(sheet, phase, name, fold,
                                               newton_options=newton_options,
@@ -480,6 +538,7 @@ def follow_path(problem, path: str, kappa: float, solver, *,
             if found is None:
                 out.reason = (f"{name} phase, fold at {fold.value:.6g} of its range: {why}")
                 return out
+            found = replace(found, before=w, before_load=lam)
             out.snaps.append(found.snap)
             out.folds.append(found)
             w, lam = found.landing, float(fold.value)

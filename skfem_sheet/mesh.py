@@ -51,7 +51,7 @@ from skfem import MeshTet
 from .params import ParameterError, Sheet, check_range
 
 __all__ = ["MeshSpec", "SheetMesh", "sheet_mesh", "plan_triangulation", "refine_triangulation",
-           "extrude", "default_layers", "estimate_dofs", "MAX_REFINE"]
+           "extrude", "default_layers", "estimate_dofs", "chord_error", "MAX_REFINE"]
 
 MAX_REFINE = 4
 """Largest ``refine``: 4 halvings are 256x the tetrahedra of the base mesh."""
@@ -90,6 +90,15 @@ class SheetMesh:
         point of a pointed sheet).  Their mid-plane nodes are where the tip
         deflection is read (:func:`skfem_sheet.analyses.observables.free_edge_nodes`).
         None for meshes built by hand: the free edge is then ``x = length``.
+    chord_error : float
+        The largest distance of the plan's boundary from the outline it
+        meshes (:func:`chord_error`): 0 where the outline is straight (the
+        trapezoid, and meshes built by hand), else the sagitta of its chords
+        on the curved profile and the bites (about ``h^2 k / 8`` for edges of
+        length ``h`` on a curve of curvature ``k``).  Two meshes of one
+        outline differ by at most the sum of theirs, which bounds how far
+        outside one mesh a node of the other can lie
+        (:func:`~skfem_sheet.analyses.transfer.transfer`).
     """
 
     mesh: object
@@ -102,6 +111,7 @@ class SheetMesh:
     refine: int = 0
     planform: object = None
     free_edge: object = field(default=None, repr=False)
+    chord_error: float = 0.0
 
     @property
     def n_elements(self) -> int:
@@ -257,6 +267,61 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
     """
     xy, tri, _ = _plan(length, tip_width, hmax, half, refine, planform)
     return xy, tri
+
+
+def chord_error(xy, tri, length: float, planform=None) -> float:
+    """The largest distance of a plan triangulation's boundary from the outline.
+
+    The boundary vertices of a mesh of a curved outline lie on it (gmsh places
+    them on the spline through the profile, within about 1e-6 of the profile
+    itself, and on the exact circle arcs of the bites), its edges are chords:
+    between their ends they leave the curve by up to their sagitta, greatest
+    near their midpoints.  Measured at every boundary vertex and edge midpoint
+    on a curved piece of the outline (not on the axis ``y = 0``, the clamp
+    ``x = 0`` or the tip cut ``x = L``, which are straight and meshed
+    exactly): the vertical gap to the profile ``y = p(x/L)/2`` (at least the
+    distance to it) or the radial gap to a bite's circle, whichever is
+    smaller.  0 for the trapezoid (straight edges only).
+
+    Parameters
+    ----------
+    xy : ndarray (n, 2)
+        Plan vertices (the whole plan or its half ``y >= 0``).
+    tri : ndarray (m, 3)
+    length : float
+        L/a.
+    planform : Planform or None
+
+    Examples
+    --------
+    >>> from skfem_sheet.params import Planform
+    >>> P = Planform.from_function(lambda s: 1 + 0.2 * s * s)
+    >>> xy, tri = plan_triangulation(1.6, P.tip_width, 0.2, half=True, planform=P)
+    >>> 1e-4 < chord_error(xy, tri, 1.6, P) < 1e-3, chord_error(xy, tri, 1.6) == 0.0
+    (True, True)
+    """
+    if planform is None or (planform.is_linear and not planform.bites):
+        return 0.0
+    xy = np.asarray(xy, dtype=float)
+    edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    boundary = uniq[count == 1]
+    a = np.column_stack([xy[boundary[:, 0], 0], np.abs(xy[boundary[:, 0], 1])])
+    b = np.column_stack([xy[boundary[:, 1], 0], np.abs(xy[boundary[:, 1], 1])])
+    eps = 1e-12 * max(1.0, float(length))
+
+    def both(k, value):
+        return (np.abs(a[:, k] - value) <= eps) & (np.abs(b[:, k] - value) <= eps)
+
+    curved = ~(both(1, 0.0) | both(0, 0.0) | both(0, float(length)))
+    if not curved.any():
+        return 0.0
+    pts = np.vstack([a[curved], b[curved], 0.5 * (a[curved] + b[curved])])
+    gap = np.abs(pts[:, 1] - 0.5 * np.asarray(planform.profile(pts[:, 0] / length)))
+    outline = planform.outline(length)
+    for c, r in zip(outline.centres, outline.radii):
+        gap = np.minimum(gap, np.abs(np.hypot(pts[:, 0] - c, pts[:, 1]) - r))
+    return float(gap.max())
 
 
 def _plan(length, tip_width, hmax, half=False, refine=0, planform=None):
@@ -621,4 +686,5 @@ class MeshSpec:
         return SheetMesh(mesh=MeshTet(p, t), length=self.length, tip_width=self.tip_width,
                          thickness=self.thickness, hmax=self.hmax, layers=self.layers,
                          half=self.half, refine=self.refine, planform=self.planform,
-                         free_edge=free_edge)
+                         free_edge=free_edge,
+                         chord_error=chord_error(xy, tri, self.length, self.planform))

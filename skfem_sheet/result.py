@@ -76,6 +76,11 @@ class StartRecord:
                 "levels": [dict(level) for level in self.levels]}
 
 
+def _count(pair, i):
+    """Entry ``i`` of a ``negative_eigenvalues`` pair (None where unknown)."""
+    return pair[i] if isinstance(pair, tuple) else (pair if i == 0 else None)
+
+
 @dataclass(frozen=True)
 class Result:
     """Outcome of :func:`~skfem_sheet.solve.solve`.
@@ -132,14 +137,24 @@ class Result:
         did not reach full load is named by its history: its path's own
         branch, switched at each snap.)
     stable : bool or None
-        Whether the equilibrium is stable: the constrained Hessian (the tangent
-        on the incompressible subspace) is positive definite, read off the
-        inertia of the tangent at the end state (``None`` if the linear solver
-        cannot tell).  For a symmetric solve, stability against symmetric
-        perturbations.  A converged result is never known to be unstable (the
-        solve fails instead).
-    negative_eigenvalues : int or None
-        Number of negative eigenvalues of the constrained Hessian.
+        Whether the equilibrium is stable against every perturbation: the
+        constrained Hessian (the tangent on the incompressible subspace) is
+        positive definite, read off the inertia of the tangent at the end
+        state (``None`` if the linear solver cannot tell).  A symmetric solve
+        counts both halves of the whole sheet's spectrum: the half model's
+        own (mirror-symmetric perturbations) and the antisymmetric problem's
+        on the same half mesh (the mirror's other condition,
+        :func:`~skfem_sheet.analyses.stability.antisymmetric_stability`, one
+        more factorisation); True only when both counts are zero.  A
+        converged result is never known to be unstable (the solve fails
+        instead, and says which perturbation and, for an antisymmetric one,
+        which kind of mode).
+    negative_eigenvalues : tuple or None
+        ``(symmetric, antisymmetric)``: negative eigenvalues of the
+        constrained Hessian for mirror-symmetric and mirror-antisymmetric
+        perturbations (a symmetric solve); for a whole sheet
+        (``symmetric=False``) ``(k, None)``, ``k`` the count for every
+        perturbation.  None where unknown.
     refine : int
         Nested refinements of the mesh made at ``hmax``.
     mode : Mode or None
@@ -265,7 +280,9 @@ class Result:
         ("message", "str", lambda r: r.message or ""),
         ("branch", "str", lambda r: r.branch),
         ("stable", "bool?", lambda r: r.stable),
-        ("negative_eigenvalues", "int", lambda r: r.negative_eigenvalues),
+        ("negative_eigenvalues", "int", lambda r: _count(r.negative_eigenvalues, 0)),
+        ("antisymmetric_negative_eigenvalues", "int",
+         lambda r: _count(r.negative_eigenvalues, 1)),
         ("snapped", "bool?", lambda r: r.snapped),
         ("newton_iterations", "int", lambda r: r.newton_iterations),
         ("load_steps", "int", lambda r: r.load_steps),

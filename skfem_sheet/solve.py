@@ -8,18 +8,18 @@ path itself is :func:`skfem_sheet.continuation.follow_path`'s.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
 from .analyses.mode import mode_of
 from .analyses.observables import tip_deflection
 from .analyses.sensitivity import check_parameters, state_sensitivities
+from .analyses.stability import antisymmetric_stability
 from .build import BuildChain
 from .continuation import PATHS, StepOptions
 from .linalg import make_linear_solver
 from .mesh import estimate_dofs
-from .newton import NewtonOptions, Stats, polish
+from .newton import NewtonOptions, Stats, polish, timed
 from .params import ParameterError, Sheet, check_range
 from .problem import SheetProblem
 from .result import Result, SolveError, StartRecord
@@ -196,6 +196,7 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
                              f"{what} gives about {ndofs:,} unknowns, "
                              f"more than the {MAX_DOFS:,} that fit in memory here")
     linear = make_linear_solver(solver)
+    solver_name = linear.name
     for name, value, kind in (("newton_options", newton_options, NewtonOptions),
                               ("step_options", step_options, StepOptions)):
         if value is not None and not isinstance(value, kind):
@@ -257,32 +258,75 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         if out.converged and pr is problem and (k, g) == (out.kappa, out.g):
             w_last = w  # the end state, as the Result holds it
         series.on_step(pr, w_last, k, g)
+    sens = None
+    t_sens = time.perf_counter()
+    if sensitivities and out.converged:
+        # with the factorisation at the end state (before the antisymmetric check)
+        sens = state_sensitivities(problem, w, out.g, sensitivities, linear=linear)
+    t_sens = time.perf_counter() - t_sens
+    converged, message = out.converged, out.reason
     stable, n_neg = (out.stable, out.negative_eigenvalues) if out.converged else (None, None)
     # the state's name, read from the state (its S-curve's bend there,
     # analyses.mode), with the solve's factorisation; the path's history stays
     # in the snaps
     mode = mode_of(problem, w, out.g, linear) if out.converged else None
+    back_substitutions = _back_substitutions(linear)
+    if converged:
+        del job, linear  # done with: the check's own factorisation may be large
+        stable, n_neg, why = _stable_against_every_perturbation(
+            problem, w, stable, n_neg, symmetric, solver, stats)
+        if why:
+            converged, message = False, why
     result = Result(
         sheet=sheet, path=path, hmax=hmax,
-        deflection=tip_deflection(problem, w), converged=out.converged,
-        message=out.reason, kappa=out.kappa, gravity=out.g,
+        deflection=tip_deflection(problem, w), converged=converged,
+        message=message, kappa=out.kappa, gravity=out.g,
         dofs=int(problem.ndof), newton_iterations=stats.newton_iterations,
         factorizations=stats.factorizations, load_steps=len(out.steps),
         rejected_steps=out.rejected_steps,
-        wall_time_s=time.perf_counter() - t0, assembly_s=stats.assembly_s,
+        wall_time_s=time.perf_counter() - t0 - t_sens, assembly_s=stats.assembly_s,
         linear_solve_s=stats.linear_solve_s,
         energy=problem.energy(w, out.g),
         volume_change=problem.deformed_volume(w) / problem.volume0 - 1.0,
-        solver=linear.name, layers=problem.sheet_mesh.layers,
+        solver=solver_name, layers=problem.sheet_mesh.layers,
         steps=tuple(out.steps), snaps=tuple(out.snaps), symmetric=bool(symmetric),
         branch=mode.name if mode is not None else _branch(path, out.snaps), stable=stable,
         negative_eigenvalues=n_neg, mode=mode,
         refine=int(refine), problem=problem, w=w,
-        back_substitutions=_back_substitutions(linear), polish_iterations=n_polish,
-        target_gravity=gravity, start_record=out.record)
-    if not out.converged and on_failure == "raise":
-        raise SolveError(f"solve did not reach full load: {out.reason}", result)
-    if sensitivities and out.converged:
-        result = replace(result, sensitivities=state_sensitivities(
-            problem, w, out.g, sensitivities, linear=linear))
+        back_substitutions=back_substitutions, polish_iterations=n_polish,
+        target_gravity=gravity, start_record=out.record, sensitivities=sens)
+    if not converged and on_failure == "raise":
+        what = ("solve did not reach full load" if not out.converged
+                else "solve reached full load on an unstable state")
+        raise SolveError(f"{what}: {message}", result)
     return result
+
+
+def _stable_against_every_perturbation(problem, w, stable, n_neg, symmetric, solver, stats):
+    """The end state's stability against every perturbation: ``(stable,
+    (symmetric count, antisymmetric count), why not)``.
+
+    The half model's own inertia (``n_neg``, from the start strategy) counts
+    the mirror-symmetric perturbations; the antisymmetric ones, which it does
+    not see, are counted by the same half mesh's Hessian under the mirror's
+    other condition (:func:`~skfem_sheet.analyses.stability.antisymmetric_stability`,
+    one factorisation): the two counts are the whole sheet's.  A whole sheet
+    (``symmetric=False``) is checked against every perturbation by its own
+    inertia: ``(k, None)``."""
+    if not symmetric:
+        return stable, (n_neg, None), ""
+    K = timed(stats, "assembly_s", problem.tangent, w)
+    t = time.perf_counter()
+    anti = antisymmetric_stability(problem, w, solver, K=K)
+    stats.linear_solve_s += time.perf_counter() - t
+    stats.factorizations += anti.factorizations
+    pair = (n_neg, anti.negative_eigenvalues)
+    if anti.stable is False:
+        kind = f" (a {anti.mode} mode)" if anti.mode else ""
+        return False, pair, (
+            f"the symmetric end state is unstable to antisymmetric perturbations: "
+            f"{anti.negative_eigenvalues} negative eigenvalue(s) of the Hessian under the "
+            f"mirror's other condition{kind}; the sheet leaves its mirror symmetry there "
+            f"(solve the whole sheet, symmetric=False)")
+    both = None if stable is None or anti.stable is None else bool(stable and anti.stable)
+    return both, pair, ""

@@ -15,21 +15,28 @@ a :class:`Reached` (the end state at full load and its history):
     The fine fold must be of the coarse one's kind, a fold where the load
     turns back (the branch's solutions below it); one where the load turns up
     is the other fold of a fold pair the fine mesh has there, where a branch
-    begins, and the load path runs on the fine mesh instead.
-    A fine fold inside its phase: the fine sheet snaps there too (its fold
-    load and deflections are the fine mesh's).  A fine fold beyond the phase's
-    full load: it does not, and the fine branch before the fold is finished
+    begins, and nothing snaps there.  A fine fold inside its phase: the fine
+    sheet snaps there too (its fold load and deflections are the fine
+    mesh's), once however many coarse folds lead to it (a snap in steps on
+    the coarse mesh is one on the fine mesh: the sheet lands where the last of
+    them landed, and a carried landing that Newton takes back to the fine
+    fold state is no landing).  A coarse fold the fine mesh has not nearby
+    (not located, or located where the load turns up) resumes the fine path
+    from the coarse branch's last point before it.  A fine fold beyond the
+    phase's full load: it does not, and the fine branch before the fold is finished
     at full load of that phase (predicted from the fold's quadratic normal
     form, solved by Newton) and the load path goes on from there on the fine
     mesh.  Without (more) folds the coarse end state is transferred and
-    finished by Newton at full load (where Newton leaves its basin and no
-    snap was carried, by the pseudo-transient settle of a snap and Newton,
-    :func:`~skfem_sheet.continuation.settle`; after a carried snap, by the
-    load path on the fine mesh from the last snap's landing state),
-    accepted by the load path's step rule (its distance from the carried
-    state at most four times the nominal corrector distance: it stayed on
-    the coarse path's branch) and verified stable; otherwise the load path
-    runs on the fine mesh instead (the record says why).
+    finished by Newton at full load (where Newton leaves its basin, by the
+    pseudo-transient settle of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
+    that fails after a carried snap, by the load path on the fine mesh from
+    the last snap's landing state), accepted by the load path's step rule
+    (its distance from the carried state at most four times the nominal
+    corrector distance: it stayed on the coarse path's branch) and verified
+    stable; otherwise the load path runs on the fine mesh instead (the
+    record says why).  On a curved outline the two meshes' polygons differ
+    by their chord errors, and the states are carried between them as
+    :func:`~skfem_sheet.analyses.transfer.transfer` says.
 
 The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
 at most 0.2 (:meth:`CoarseStart.coarse_mesh`): hmax 0.1 for the paper's
@@ -65,7 +72,7 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from .analyses.observables import tip_deflection
-from .analyses.transfer import transfer
+from .analyses.transfer import TransferError, transfer
 from .continuation import (
     Fold,
     PathOutcome,
@@ -73,6 +80,7 @@ from .continuation import (
     StepOptions,
     end_state_verdict,
     follow_path,
+    landed_on_its_fold,
     load_phases,
     newton_tolerances,
     settle,
@@ -80,9 +88,10 @@ from .continuation import (
 )
 from .engine.corrector import correct, plain_linearization
 from .engine.fold import fold_on_branch, locate_fold
+from .engine.loadpath import ramp
 from .engine.protocol import Counting, EngineFailure
 from .linalg import make_linear_solver
-from .newton import NewtonOptions, Stats, newton
+from .newton import NewtonOptions, NewtonResult, Stats, newton
 from .params import ParameterError, check_range
 from .result import StartRecord
 from .sheet_engine import LoadPhase, SheetLoadProblem
@@ -253,7 +262,14 @@ class CoarseStart:
         return ""
 
     def reach(self, job: Job) -> Reached:
-        out, record = self._carried_path(job, job.step_options.fold_tolerance / 100)
+        try:
+            out, record = self._carried_path(job, job.step_options.fold_tolerance / 100)
+        except TransferError as err:
+            # meshes that do not describe one outline (never two meshes of one
+            # sheet): the path on the mesh of the solve, and the record says why
+            hmax = float(job.problem.sheet_mesh.hmax) / 2 ** int(job.problem.sheet_mesh.refine)
+            out, record = _path(job), StartRecord(self.name, self.coarse_mesh(hmax),
+                                                  fallback=str(err))
         return Reached.of_path(out, record)
 
     def _carried_path(self, job: Job, coarse_fold_tolerance: float, finish: str = "fine"):
@@ -330,22 +346,34 @@ class CoarseStart:
         tight = newton_tolerances(job.newton_options)
         scale = max(1.0, fine.sheet.length)
         folds, seen = [], []
+        located_at = {}
+
+        def located_on_fine(k):
+            """Coarse fold ``k`` located on the fine mesh (once)."""
+            if k not in located_at:
+                fold = coarse.folds[k]
+                phase = LoadPhase(sheet, *phases[names.index(fold.snap.phase)][1:])
+                f0 = job.stats.factorizations
+                located_at[k] = _fold_on_fine(cproblem, fold, sheet, phase, tight,
+                                              job.step_options.fold_tolerance)
+                log.debug("coarse fold at %.6g located on hmax %g at %s with %d "
+                          "factorisations", fold.snap.load, hmax,
+                          None if located_at[k] is None else located_at[k].value,
+                          job.stats.factorizations - f0)
+            return located_at[k]
+
         for k, fold in enumerate(coarse.folds):
             job.report(share + (1.0 - share) * k / (len(coarse.folds) + 1))
             name = fold.snap.phase
             iphase = names.index(name)
             phase = LoadPhase(sheet, *phases[iphase][1:])
             f0 = job.stats.factorizations
-            located = _fold_on_fine(cproblem, fold, sheet, phase, tight,
-                                    job.step_options.fold_tolerance)
-            log.debug("coarse fold at %.6g located on hmax %g at %s with %d factorisations",
-                      fold.snap.load, hmax, None if located is None else located.value,
-                      job.stats.factorizations - f0)
+            located = located_on_fine(k)
+            why = ""
             if located is None:
-                return fall_back(f"the coarse fold in the {name} phase at "
-                                 f"{fold.snap.load:.6g} was not located on hmax {hmax:g}", seen)
-            lam = located.value
-            if located.side != -1:
+                why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was not "
+                       f"located on hmax {hmax:g}")
+            elif located.side != -1:
                 # a load path's fold ends its branch: the load turns back there
                 # (the branch's solutions lie below the fold load, side -1).  A
                 # fold with its solutions above it is where a branch begins as
@@ -354,16 +382,44 @@ class CoarseStart:
                 # (measured: L 1.63, b 0.65, a/R 3.37, h 0.02, curvature-first
                 # at hmax 0.1 from 0.2: the coarse fold at 0.2349 carried to the
                 # fine pair's lower fold at 0.1814, the fine path's fold at 0.2185)
-                return fall_back(f"the coarse fold in the {name} phase at "
-                                 f"{fold.snap.load:.6g} was located on hmax {hmax:g} at "
-                                 f"{lam:.6g}, a fold where the load turns up (a branch begins "
-                                 f"there), not where the sheet snaps", seen)
+                why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was "
+                       f"located on hmax {hmax:g} at {located.value:.6g}, a fold where the "
+                       f"load turns up (a branch begins there), not where the sheet snaps")
+            if why:
+                # the fine mesh's fold is not near the coarse one: the fine
+                # path from the coarse fold's state, an equilibrium of the fine
+                # branch at that load (the branch goes on there on the fine
+                # mesh), finds it
+                out, more = _path_from_coarse_fold(cproblem, fold, sheet, phase, job)
+                if out is None:
+                    return fall_back(f"{why}, and {more}", seen)
+                resumed = fold.before_load if fold.before is not None else fold.snap.load
+                return after_coarse(out, [x for x in coarse.steps if (names.index(x[0]), x[1])
+                                          <= (iphase, resumed)])
+            lam = located.value
+            if _same_fine_fold(located, name, folds, job.step_options.fold_tolerance):
+                # two coarse folds close together, one on the fine mesh: the
+                # sheet snapped from it already (the landing carried from the
+                # first, or a snap of the fine mesh's own)
+                seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
+                             "snapped": False, "same_fine_fold": True})
+                continue
             inside = lam <= 1.0
             seen.append({"phase": name, "coarse_load": fold.snap.load, "load": lam,
                          "snapped": inside})
             if inside:
+                # the coarse folds after this one that lead to the same fine fold
+                # (a snap in steps on the coarse mesh, one on the fine): the
+                # sheet lands where the last of them landed
+                last = k
+                while last + 1 < len(coarse.folds) and \
+                        coarse.folds[last + 1].snap.phase == name and \
+                        located_on_fine(last + 1) is not None and \
+                        _same_load(located_on_fine(last + 1).value, lam,
+                                   job.step_options.fold_tolerance):
+                    last += 1
                 snapped = _fine_snap(cproblem, fold, sheet, phase, located, job,
-                                     fold.snap.negative_eigenvalues)
+                                     fold.snap.negative_eigenvalues, coarse.folds[last])
                 if snapped is None:
                     return fall_back(f"the snap at the fold in the {name} phase at {lam:.6g} "
                                      f"failed on hmax {hmax:g}", seen)
@@ -393,37 +449,47 @@ class CoarseStart:
         w0 = transfer(cproblem, coarse.w, fine)
         w0[fine.clamp_dofs] = fine.clamp_values(coarse.kappa)
         res = newton(fine, w0, coarse.g, job.linear, job.newton_options, job.stats)
+        log.debug("fine Newton from the coarse end state: %s %s corrections %s", res.converged,
+                  res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
-        if not res.converged and folds:
-            # a snap was carried: the fine sheet is on its landing state at the
-            # last fold's load, and the load path goes on from there on the
-            # fine mesh (not a settle from the coarse end state: the distance
-            # rule below checks the end state only, not that the fine sheet
-            # came there on the branch it landed on)
-            log.debug("fine Newton from the coarse end state failed (%s): the fine path from "
-                      "the last landing", res.reason)
-            last = folds[-1]
-            ilast = names.index(last.snap.phase)
-            out = _path(job, w0=last.landing, resume=(last.snap.phase, last.snap.load))
-            if not out.converged:
-                return fall_back(f"fine Newton from the coarse end state failed after a carried "
-                                 f"snap ({res.reason}), and so did the fine path from the "
-                                 f"landing: {out.reason}", seen)
-            return after_coarse(out, [x for x in coarse.steps
-                                      if (names.index(x[0]), x[1]) <= (ilast, last.snap.load)])
         if not res.converged:
             # outside Newton's basin (measured: the long sheets' end states
             # carried from hmax 0.2 to 0.1, 0.05 apart, Newton diverging):
             # settled by the pseudo-transient, drawn to stable states, and
-            # accepted by the same rule as Newton's
+            # accepted by the same rule as Newton's (the distance from the
+            # carried state: as Newton's, a check of the end state, which
+            # also keeps it on the coarse path's branch where the fine sheet
+            # is bistable, its states far apart)
             log.debug("fine Newton from the coarse end state failed (%s): settling", res.reason)
-            pt, res = settle(fine, w0, coarse.g, job.linear, job.newton_options,
-                             job.step_options, job.stats)
-            if res is None or not res.converged:
-                why = pt.reason if res is None else res.reason
+            pt, settled = settle(fine, w0, coarse.g, job.linear, job.newton_options,
+                                 job.step_options, job.stats)
+            why = pt.reason if settled is None else settled.reason
+            if settled is not None and settled.converged:
+                moved = float(np.abs(settled.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
+                why = "" if not job.step_options.rule(scale).rejects(moved) else \
+                    f"it settled {moved:.3g} away (another branch)"
+            if not why:
+                res = settled
+                iterations += pt.iterations + settled.iterations
+            elif folds:
+                # a snap was carried: the fine sheet is on its landing state at
+                # the last fold's load, and the load path goes on from there on
+                # the fine mesh
+                log.debug("the settle from the coarse end state failed (%s): the fine path "
+                          "from the last landing", why)
+                last = folds[-1]
+                ilast = names.index(last.snap.phase)
+                out = _path(job, w0=last.landing, resume=(last.snap.phase, last.snap.load))
+                if not out.converged:
+                    return fall_back(f"fine Newton from the coarse end state failed after a "
+                                     f"carried snap ({res.reason}), and so did the settle "
+                                     f"({why}) and the fine path from the landing: "
+                                     f"{out.reason}", seen)
+                return after_coarse(out, [x for x in coarse.steps if (names.index(x[0]), x[1])
+                                          <= (ilast, last.snap.load)])
+            else:
                 return fall_back(f"fine Newton from the coarse end state failed, and so did "
                                  f"the settle from it: {why}", seen)
-            iterations += pt.iterations + res.iterations
         moved = float(np.abs(res.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
         if job.step_options.rule(scale).rejects(moved):
             return fall_back(f"fine Newton moved {moved:.3g} from the coarse end state, more "
@@ -518,14 +584,16 @@ def _fold_on_fine(cproblem, fold, sheet, phase, tol, ptol):
     return located
 
 
-def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
+def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing, landed=None):
     """The snap at the fine fold ``located``: landing on the coarse path's
-    landing state carried over and solved at the fine fold load (else a snap
-    settle on the fine mesh): the Fold (its Snap record, the fold state and
-    null vector on the fine mesh, the landed state), or None."""
+    landing state (of the coarse fold ``landed``, default ``fold``) carried
+    over and solved at the fine fold load (else a snap settle on the fine
+    mesh): the Fold (its Snap record, the fold state and null vector on the
+    fine mesh, the landed state), or None."""
     fine = sheet.problem
+    landed = fold if landed is None else landed
     kappa, g = phase.loads(located.p)
-    w = transfer(cproblem, fold.landing, fine)
+    w = transfer(cproblem, landed.landing, fine)
     w[fine.clamp_dofs] = fine.clamp_values(kappa)
     # a point on the way, solved like every point of the load path (to a
     # tenth of the nominal corrector distance, StepOptions.intermediate_utol)
@@ -536,24 +604,117 @@ def _fine_snap(cproblem, fold, sheet, phase, located, job, crossing):
     loose = replace(job.newton_options, rtol=1.0, linearization="exact",
                     utol=job.step_options.intermediate_utol(scale))
     res = newton(fine, w, g, job.linear, loose, job.stats)
+    if not res.converged and landed.snap.load != located.value:
+        res = _landing_followed_to_fine_load(cproblem, landed, phase, located.value, job, loose)
+    w_fold = sheet.full(located.u, (kappa, g))
     landing = None
-    if res.converged:
+    if res.converged and not landed_on_its_fold(res.w, w_fold, fine.nu_dof, loose.utol):
+        # (a carried landing that Newton takes back to the fold state is no
+        # landing: the fine mesh has no stable state there, the coarse one's
+        # was a step of a snap in two that the fine mesh makes in one)
         stable, _ = end_state_verdict(fine, job.linear, res.w, job.stats)
         if stable is not False:
             landing = res.w
     if landing is None:
+        log.debug("the carried landing at %.6g: %s", located.value,
+                  res.reason or "back at the fold, or unstable")
         found, _, _ = snap_from_fold(sheet, phase, fold.snap.phase,
                                      replace(located, crossing=crossing),
                                      newton_options=job.newton_options,
                                      step_options=job.step_options,
                                      negative_eigenvalues=crossing)
         return found
-    w_fold = sheet.full(located.u, (kappa, g))
     v = np.asarray(located.v, dtype=float)
     v = v / float(np.abs(v[fine.free < fine.nu_dof]).max())
     snap = Snap(fold.snap.phase, float(located.value), kappa, g, tip_deflection(fine, w_fold),
                 tip_deflection(fine, landing), tuple(crossing), float(fine.sheet_mesh.hmax))
-    return Fold(snap, w_fold, v, landing)
+    before = None
+    if fold.before is not None:  # for a finer level: the coarse branch's point, carried
+        before = transfer(cproblem, fold.before, fine)
+        before[fine.clamp_dofs] = fine.clamp_values(phase.loads([fold.before_load])[0])
+    return Fold(snap, w_fold, v, landing, before, fold.before_load)
+
+
+def _landing_followed_to_fine_load(cproblem, fold, phase, lam, job, loose):
+    """The coarse landing carried to the fine mesh at the coarse fold's load
+    (where it is an equilibrium of the coarse sheet, so Newton from it
+    converges on the fine one) and followed along its branch to the fine fold
+    load ``lam`` by the load path's driver (where the fold loads of the two
+    meshes differ by more than Newton's reach on a steep landing branch): a
+    NewtonResult (full dofs), not converged where the branch does not reach
+    ``lam`` (it turns before it: no landing there)."""
+    fine = phase.sheet.problem
+    exact = replace(job.newton_options, linearization="exact")
+    sheet = SheetLoadProblem(fine, job.linear, job.stats, exact)
+    lam_c = float(fold.snap.load)
+    kappa, g = phase.loads([lam_c])
+    w = transfer(cproblem, fold.landing, fine)
+    w[fine.clamp_dofs] = fine.clamp_values(kappa)
+    res = newton(fine, w, g, job.linear, loose, job.stats)
+    if not res.converged:
+        return res
+    counter = Counting(LoadPhase(sheet, phase.start, phase.start + phase.rate))
+    scale = max(1.0, fine.sheet.length)
+    tol = newton_tolerances(job.newton_options, job.step_options.intermediate_utol(scale))
+    before = counter.stats()
+    branch = ramp(counter, res.w[fine.free], [lam_c], "lam", float(lam),
+                  rule=job.step_options.rule(scale), tol=tol, end_tol=tol)
+    job.stats.newton_iterations += (counter.stats() - before).newton_iterations
+    log.debug("the carried landing followed from %.6g to %.6g: %s", lam_c, lam,
+              "reached" if branch.completed else branch.reason)
+    if not branch.completed:
+        return NewtonResult(res.w, False, res.iterations, f"its branch: {branch.reason}")
+    return NewtonResult(sheet.full(branch.points[-1].u, phase.loads([lam])), True,
+                        res.iterations)
+
+
+def _same_fine_fold(located, phase_name, folds, ptol) -> bool:
+    """Whether the fine fold ``located`` is the one the sheet last snapped
+    from on the fine mesh (the same phase, the load within the two locations'
+    tolerance ``ptol`` each): a fold that two coarse folds close together lead
+    to is snapped from once."""
+    if not folds:
+        return False
+    last = folds[-1].snap
+    return last.phase == phase_name and _same_load(located.value, last.load, ptol)
+
+
+def _same_load(a, b, ptol) -> bool:
+    """Whether two fold loads located to ``ptol`` each are one fold's."""
+    return abs(a - b) <= 2.0 * ptol * max(1.0, abs(b))
+
+
+def _path_from_coarse_fold(cproblem, fold, sheet, phase, job):
+    """The load path on the fine mesh from the coarse branch's last point
+    before the fold (:attr:`~skfem_sheet.continuation.Fold.before`; the fold
+    state where it is not known): the state carried over and solved by
+    Newton at its load, accepted as a point of the branch by the load path's
+    step rule (its distance from the carried state) and stable, then the path
+    from there to full load, which locates the fine mesh's fold of that
+    branch, where the fine mesh has it.  (At the coarse fold itself a fine
+    mesh whose fold lies further on has two equilibria near the fold state,
+    the stable branch and the unstable one it turns into.)
+    ``(PathOutcome, "")`` or ``(None, why not)``."""
+    fine = sheet.problem
+    state, lam = ((fold.before, fold.before_load) if fold.before is not None
+                  else (fold.w, fold.snap.load))
+    kappa, g = phase.loads([lam])
+    w0 = transfer(cproblem, state, fine)
+    w0[fine.clamp_dofs] = fine.clamp_values(kappa)
+    res = newton(fine, w0, g, job.linear, job.newton_options, job.stats)
+    if not res.converged:
+        return None, f"Newton from its state on the fine mesh failed ({res.reason})"
+    moved = float(np.abs(res.w[:fine.nu_dof] - w0[:fine.nu_dof]).max())
+    if job.step_options.rule(max(1.0, fine.sheet.length)).rejects(moved):
+        return None, (f"Newton from its state on the fine mesh moved {moved:.3g} (another "
+                      f"branch)")
+    stable, k = end_state_verdict(fine, job.linear, res.w, job.stats)
+    if stable is False:
+        return None, f"its state on the fine mesh is unstable ({k} negative eigenvalue(s))"
+    out = _path(job, w0=res.w, resume=(fold.snap.phase, lam))
+    if not out.converged:
+        return None, f"the fine path from its state failed: {out.reason}"
+    return out, ""
 
 
 def _before_fold(sheet, phase, fold, tol):

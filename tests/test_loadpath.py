@@ -102,6 +102,50 @@ def test_a_thin_s_shaped_fold_pair_crossed_within_one_step_is_located():
         assert all(float(pt.u[0]) < -np.sqrt(eps) for pt in b.points)
 
 
+def _hairpin(eps):
+    """``x/eps - (x/eps)^3/3 = lam``: the spring's fold at ``lam = 2/3``,
+    ``x = eps``, with the branch's radius of curvature in ``(x, lam)`` of the
+    order of ``eps^2``: a turn too sharp for steps of ``1e-4``."""
+    return FunctionProblem(lambda u, p: u / eps - (u / eps) ** 3 / 3 - p[0],
+                           lambda u, p: np.diag(1 / eps - u**2 / eps**3), ("lam",))
+
+
+@pytest.mark.parametrize("eps", [1e-2, 1e-3, 1e-4])
+def test_a_fold_sharper_than_the_smallest_step_is_located_where_the_steps_stall(eps):
+    """Every step near the turn fails (natural ones beyond the fold, the
+    pseudo-arclength sections past the hairpin), so the steps shrink below the
+    minimum; the driver then locates the fold ahead of the last point of the
+    branch instead of ending in "step below" (before issue 56 it did, at every
+    eps here): the exact fold, where one eigenvalue crosses zero and the load
+    turns back."""
+    b = ramp(_hairpin(eps), np.zeros(1), np.zeros(1), "lam", 1.0,
+             rule=StepRule(delta=0.01, minimum=1e-4), tol=corrector.Tolerances(rtol=1e-6,
+                                                                                 utol=1e-3),
+             end_tol=corrector.Tolerances(rtol=1e-12, utol=1e-12))
+    assert not b.completed and "where the steps stalled" in b.reason
+    fold = b.fold
+    assert fold.value == pytest.approx(2 / 3, abs=1e-10)
+    assert float(fold.u[0]) == pytest.approx(eps, rel=1e-6)
+    assert fold.side == -1 and fold.crossing == (0, 1)
+    assert all(float(pt.p[0]) <= fold.value for pt in b.points)  # none past it is kept
+
+
+def test_a_branch_point_is_named_where_the_steps_stall_at_it():
+    """A pitchfork, ``x = lam``, ``(1 - lam) y + y^3 = 0``: on the branch y = 0
+    one eigenvalue crosses zero at lam = 1 and the load does not turn, so no
+    step across it is accepted (an inertia change without a turn); the ramp
+    ends there and says that it is a branch point, bracketing it, not a
+    fold."""
+    pitchfork = FunctionProblem(
+        lambda u, p: np.array([u[0] - p[0], (1 - p[0]) * u[1] + u[1] ** 3]),
+        lambda u, p: np.diag([1.0, 1 - p[0] + 3 * u[1] ** 2]), ("lam",))
+    b = ramp(pitchfork, np.zeros(2), np.zeros(1), "lam", 2.0, rule=StepRule(delta=0.01))
+    assert not b.completed and b.fold is None
+    assert b.reason.startswith("a branch point between p = ")
+    lo, hi = (float(x) for x in b.reason.split("p = ")[1].split(":")[0].split(" and "))
+    assert lo < 1.0 < hi and hi - lo < 1e-3
+
+
 def test_the_step_rule_grows_and_cuts_by_the_corrector_distance():
     rule = StepRule(initial=0.1, delta=0.01, maximum=1.0)
     assert rule.next_step(0.1, 0.01) == pytest.approx(0.1)        # nominal: the same

@@ -11,7 +11,7 @@ from skfem_sheet.analyses.observables import tip_deflection
 from skfem_sheet.continuation import StepOptions
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.newton import NewtonOptions, NewtonResult, Stats, newton
-from skfem_sheet.params import ParameterError
+from skfem_sheet.params import ParameterError, Planform
 from skfem_sheet.result import Result
 from skfem_sheet.starts import CoarseStart, PathStart, make_start
 
@@ -249,13 +249,12 @@ def test_a_carried_state_outside_newton_s_basin_is_settled_onto_the_path_s_state
 
 def test_a_carried_snap_whose_end_state_newton_cannot_finish_goes_on_from_the_landing(
         popping, monkeypatch):
-    """With a snap carried, a failed Newton at the end is not settled (the
-    distance rule would check the end state only, not that the fine sheet came
-    there on the branch it landed on), nor is the whole path run again: the
-    load path goes on from the fine landing state at the fine fold (measured:
-    L 1.3, b 1, a/R 2.5, E 100, curvature-first at hmax 0.1 from 0.2, 130
-    fine factorisations with the path run again, 48 from the landing, the
-    same end state and snap)."""
+    """With a snap carried, a failed Newton at the end is settled, as without
+    one (accepted by the same distance rule); where the settle fails too (here
+    forced), the whole path is not run again: the load path goes on from the
+    fine landing state at the fine fold (measured: L 1.3, b 1, a/R 2.5, E 100,
+    curvature-first at hmax 0.1 from 0.2, 130 fine factorisations with the
+    path run again, 48 from the landing, the same end state and snap)."""
     full, _ = popping
     real, calls, settles, paths = starts_module.newton, [], [], []
 
@@ -281,11 +280,15 @@ def test_a_carried_snap_whose_end_state_newton_cannot_finish_goes_on_from_the_la
         paths.append(resume)
         return real_path(job, w0=w0, resume=resume, on_step=on_step)
 
+    def settle_fails(problem, w, *rest):
+        settles.append(1)
+        return NewtonResult(w, False, 1, "forced"), None
+
     monkeypatch.setattr(starts_module, "newton", fails_last)
-    monkeypatch.setattr(starts_module, "settle", lambda *a: settles.append(1))
+    monkeypatch.setattr(starts_module, "settle", settle_fails)
     monkeypatch.setattr(starts_module, "_path", path)
     back = solve(*args, **kwargs)
-    assert len(calls) >= 2 * last and settles == []
+    assert len(calls) >= 2 * last and settles == [1]
     assert back.coarse_fallback == ""
     # the coarse path's, then the fine path resumed at the fine fold's load
     fold = back.start_record.folds[0]
@@ -396,3 +399,51 @@ def test_a_nested_refinement_is_coarsened_by_its_edge_length_not_its_base_mesh()
     assert fast.coarse_fallback == "" and fast.coarse_hmax == 0.2
     assert fast.coarse_factorizations > 0 and fast.factorizations < path.factorizations
     assert fast.deflection == pytest.approx(path.deflection, rel=1e-7)
+
+
+def test_two_coarse_folds_that_lead_to_one_fine_fold_are_one_snap():
+    """Issue 55's rectangle (L 1.5702, a/R 5, gravity-first, hmax 0.1): the
+    coarse path (hmax 0.2) snaps in two steps, at 0.7940 and 0.7951 of the
+    curvature ramp, the first landing 0.057 a from its fold; both lead to one
+    fold on the fine mesh.  The sheet snaps from it once and lands where the
+    coarse path's second snap landed (before issue 56 it snapped twice at the
+    same load, the first 'landing' within 0.002 a of its own fold).  The load
+    path on the fine mesh has the same single snap (slow test below)."""
+    r = solve(Sheet(length=1.5702, tip_width=1.0, curvature=5.0), path="gravity-first", hmax=0.1)
+    assert r.converged and r.stable is True
+    assert r.start_record.coarse_hmax == 0.2 and r.coarse_fallback == ""
+    coarse_folds = r.start_record.folds
+    assert len(coarse_folds) == 2 and coarse_folds[1].get("same_fine_fold") is True
+    assert coarse_folds[0]["load"] == pytest.approx(coarse_folds[1]["load"], abs=2e-5)
+    assert len(r.snaps) == 1
+    snap = r.snaps[0]
+    assert abs(snap.landing_deflection - snap.fold_deflection) > 0.1   # it moved: a snap
+
+
+#: issue 56's sheets (and issue 55's rectangle), each on the path that failed
+ISSUE_SHEETS = [
+    (Sheet.from_planform(Planform.from_function(lambda s: 1 + 0.2 * s * s), length=1.6,
+                         curvature=3.0), "curvature-first"),     # crashed in the transfer
+    (Sheet.from_planform(Planform.from_function(lambda s: 1 + 0.5 * s - 0.9 * s * s),
+                         length=2.0, curvature=4.0), "curvature-first"),  # the snap failed
+    (Sheet.from_planform(Planform.from_function(lambda s: 1 + 0.114 * s * s), length=2.186,
+                         curvature=5.476), "curvature-first"),   # the coarse path stalled
+    (Sheet(length=1.5702, tip_width=1.0, curvature=5.0), "gravity-first"),  # two snaps
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sheet, path", ISSUE_SHEETS, ids=["flare", "leaf", "flare-tip1.114",
+                                                           "rectangle"])
+def test_the_issue_sheets_reach_full_load_and_agree_with_the_path(sheet, path):
+    """Each reaches full load with the default start and ends where the load
+    path on the fine mesh ends: d to 1e-6, the same snaps (phase, and load to
+    the fold tolerance of each of the two locations)."""
+    fast = solve(sheet, path=path, hmax=0.1)
+    full = solve(sheet, path=path, hmax=0.1, start="path")
+    for r in (fast, full):
+        assert r.converged and r.stable is True and r.negative_eigenvalues == (0, 0)
+    assert fast.deflection == pytest.approx(full.deflection, abs=1e-6)
+    assert [s.phase for s in fast.snaps] == [s.phase for s in full.snaps]
+    for a, b in zip(fast.snaps, full.snaps):
+        assert a.load == pytest.approx(b.load, abs=2 * StepOptions().fold_tolerance)

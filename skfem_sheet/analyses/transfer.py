@@ -31,6 +31,20 @@ layer``.  A point is therefore located by
 Every array is linear in the mesh (the grid, the prism table) or in the chunk
 of points processed at once (``chunk``), so the working memory of a transfer
 is bounded by a constant times the size of the state plus a fixed chunk.
+
+Two meshes of a curved outline (a planform's profile, a bite) are two
+polygons inscribed in it: their boundary vertices lie on the outline, their
+boundary edges are chords, each off the outline by up to its sagitta
+(:attr:`~skfem_sheet.mesh.SheetMesh.chord_error`).  A node of the new mesh
+can then lie just outside the old mesh's plan: a midpoint of a new chord
+where the outline bulges inwards (a flare), a vertex on the outline where it
+bulges outwards (a leaf), at most the two chord errors from it.  Such a point
+is located in the boundary cell nearest to it and the old field's polynomial
+on that cell is continued to it (:meth:`ExtrudedLocator.locate` with
+``outside``): the natural extension of the field across a boundary that is
+itself only known to the chord error.  A point farther out than the two
+chord errors cannot be carried: :class:`TransferError` names the two meshes
+and the distance.
 """
 from __future__ import annotations
 
@@ -40,7 +54,8 @@ import numpy as np
 
 from ..params import ParameterError
 
-__all__ = ["CHUNK", "ExtrudedLocator", "interpolate", "transfer"]
+__all__ = ["CHUNK", "ExtrudedLocator", "TransferError", "carry_distance", "interpolate",
+           "transfer"]
 
 #: Points located and interpolated at once (bounds the working memory:
 #: measured about 0.75 kB per point, i.e. some 15 MB per chunk).
@@ -50,6 +65,12 @@ CHUNK = 20_000
 #: still taken to lie in it (round-off on the boundary; ``_clip_to_sheet``
 #: moves the nodes of a new mesh inside the old one).
 OUTSIDE_TOL = 1e-8
+
+
+class TransferError(ParameterError):
+    """A state that cannot be carried from one mesh to another: a node of the
+    new mesh lies outside the old one by more than their outlines can differ
+    (the message names both meshes and the distance)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +104,10 @@ class ExtrudedLocator:
         ``k * n_tri + i``.
     mapping : skfem MappingAffine
         The affine mapping of the mesh (reference coordinates of points).
+    boundary : ndarray (k, 2, 2)
+        The plan's boundary edges (their two vertices).
+    boundary_triangle : ndarray (k,)
+        The plan triangle of each boundary edge.
     """
 
     origin: np.ndarray
@@ -95,6 +120,8 @@ class ExtrudedLocator:
     levels: np.ndarray
     prism_tets: np.ndarray
     mapping: object
+    boundary: np.ndarray
+    boundary_triangle: np.ndarray
 
     @classmethod
     def of(cls, sheet_mesh, mapping=None) -> ExtrudedLocator:
@@ -184,9 +211,15 @@ class ExtrudedLocator:
         bin_start = np.concatenate([[0], np.cumsum(per_bin)])
         if mapping is None:
             mapping = m._mapping()
+        # the plan's boundary: the edges of one triangle only
+        edge_tri = np.tile(np.arange(ntri), 3)
+        edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, first, count = np.unique(edges, axis=0, return_index=True, return_counts=True)
+        once = first[count == 1]
         return cls(origin=lo, cell=cell, shape=shape, bin_start=bin_start,
                    bin_triangles=owner[order], corner=a, inverse=inverse, levels=levels,
-                   prism_tets=prism_tets, mapping=mapping)
+                   prism_tets=prism_tets, mapping=mapping, boundary=xy[edges[once]],
+                   boundary_triangle=edge_tri[once])
 
     def locate_plan(self, xy):
         """Plan triangle containing each point of ``xy`` (shape ``(n, 2)``).
@@ -196,7 +229,8 @@ class ExtrudedLocator:
         triangle : ndarray (n,) of int
         score : ndarray (n,)
             Smallest barycentric coordinate in that triangle (``>= 0`` inside,
-            the largest over the candidates).
+            the largest over the candidates; ``-inf`` where no triangle's
+            bounding box is near the point).
         """
         xy = np.asarray(xy, dtype=float)
         n = len(xy)
@@ -207,9 +241,12 @@ class ExtrudedLocator:
         bins = ij[:, 0] * self.shape[1] + ij[:, 1]
         start, stop = self.bin_start[bins], self.bin_start[bins + 1]
         count = stop - start
-        if np.any(count == 0):
-            bad = int(np.flatnonzero(count == 0)[0])
-            raise ParameterError(f"point {xy[bad].tolist()} is outside the plan of the mesh")
+        if np.any(count == 0):  # no triangle near: outside, the nearest boundary cell
+            tri, score = np.zeros(n, dtype=np.int64), np.full(n, -np.inf)
+            some = count > 0
+            if some.any():
+                tri[some], score[some] = self.locate_plan(xy[some])
+            return tri, score
         point = np.repeat(np.arange(n), count)
         first = np.cumsum(count) - count
         cand = self.bin_triangles[np.repeat(start - first, count) + np.arange(len(point))]
@@ -222,21 +259,53 @@ class ExtrudedLocator:
         pick = hit[np.unique(point[hit], return_index=True)[1]]
         return cand[pick], best
 
-    def locate(self, X):
+    def nearest_boundary(self, xy):
+        """The boundary edge of the plan nearest to each point of ``xy``
+        (shape ``(n, 2)``): its triangle and the distance (exact, over all
+        boundary edges, in chunks of points; for the few points outside)."""
+        xy = np.asarray(xy, dtype=float)
+        tri, dist = np.zeros(len(xy), dtype=np.int64), np.zeros(len(xy))
+        a = self.boundary[:, 0]
+        ab = self.boundary[:, 1] - a
+        ab2 = np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300)
+        step = max(1, 2_000_000 // max(1, len(a)))
+        for lo in range(0, len(xy), step):
+            q = xy[lo:lo + step, None, :] - a[None]
+            t = np.clip(np.einsum("pkj,kj->pk", q, ab) / ab2, 0.0, 1.0)
+            d = np.linalg.norm(q - t[..., None] * ab[None], axis=2)
+            k = np.argmin(d, axis=1)
+            tri[lo:lo + step] = self.boundary_triangle[k]
+            dist[lo:lo + step] = d[np.arange(len(k)), k]
+        return tri, dist
+
+    def locate(self, X, outside: float = 0.0):
         """Tetrahedron containing each point of ``X`` (shape ``(n, 3)``).
+
+        Parameters
+        ----------
+        X : ndarray (n, 3)
+        outside : float
+            Points outside the plan by at most this distance are located in
+            the boundary cell nearest to them (whose polynomials continue the
+            field there; see the module).
 
         Raises
         ------
         ParameterError
             If a point lies outside the mesh (by more than ``OUTSIDE_TOL`` in
-            barycentric coordinates).
+            barycentric coordinates, or, in the plan, by more than
+            ``outside``); the message gives its distance from the plan.
         """
         X = np.asarray(X, dtype=float)
         tri, score = self.locate_plan(X[:, :2])
-        if np.any(score < -OUTSIDE_TOL):
-            bad = int(np.argmin(score))
-            raise ParameterError(f"point {X[bad].tolist()} is outside the plan of the mesh "
-                                 f"(barycentric coordinate {score[bad]:.3g})")
+        away = np.flatnonzero(score < -OUTSIDE_TOL)
+        if len(away):
+            near, dist = self.nearest_boundary(X[away, :2])
+            if np.any(dist > outside):
+                bad = int(np.argmax(dist))
+                raise ParameterError(f"point {X[away[bad]].tolist()} is outside the plan of "
+                                     f"the mesh by {dist[bad]:.3g} (more than {outside:.3g})")
+            tri[away] = near
         nlay = len(self.levels) - 1
         k = np.clip(np.searchsorted(self.levels, X[:, 2], side="right") - 1, 0, nlay - 1)
         cand = self.prism_tets[k * (len(self.prism_tets) // nlay) + tri]  # (n, 3)
@@ -248,6 +317,7 @@ class ExtrudedLocator:
             s = np.minimum(R.min(axis=0), 1.0 - R.sum(axis=0))
             better = s > best
             best[better], cells[better] = s[better], cand[better, j]
+        best[away] = 0.0  # outside the plan, allowed: the nearest cell's continuation
         if np.any(best < -OUTSIDE_TOL):
             bad = int(np.argmin(best))
             raise ParameterError(f"point {X[bad].tolist()} is outside the mesh "
@@ -300,6 +370,10 @@ def transfer(old, w_old, new, *, chunk: int = CHUNK):
     ``probes`` (to round-off); the working memory is linear in the meshes,
     plus ``chunk`` points at a time.
 
+    Where the outline is curved, a node of ``new`` up to
+    :func:`carry_distance` outside the plan of ``old`` takes the value of the
+    old field continued from its nearest boundary cell (see the module).
+
     Parameters
     ----------
     old, new : SheetProblem
@@ -310,6 +384,12 @@ def transfer(old, w_old, new, *, chunk: int = CHUNK):
     Returns
     -------
     ndarray (new.ndof,)
+
+    Raises
+    ------
+    TransferError
+        A node of ``new`` lies outside ``old`` by more than
+        :func:`carry_distance` (the two meshes do not describe one outline).
     """
     if isinstance(chunk, bool) or not float(chunk).is_integer() or chunk < 1:
         raise ParameterError(f"chunk must be an integer >= 1, got {chunk!r}")
@@ -317,6 +397,7 @@ def transfer(old, w_old, new, *, chunk: int = CHUNK):
     s_old = old.length / old.sheet_mesh.length
     X = new.nodes / np.array([s_old, 1.0, 1.0])  # in old's mesh coordinates
     X = _clip_to_sheet(X, old.sheet_mesh)
+    allowed = carry_distance(old.sheet_mesh, new.sheet_mesh, s_old)
     U_old, p_old = old.split(w_old)
     locator = ExtrudedLocator.of(old.sheet_mesh, old.basis_u.mapping)
     n_v = new.sheet_mesh.n_vertices  # P2 vertex nodes come first (skfem numbering)
@@ -326,7 +407,15 @@ def transfer(old, w_old, new, *, chunk: int = CHUNK):
     for lo in range(0, len(X), chunk):
         hi = min(lo + chunk, len(X))
         Xc = X[lo:hi]
-        cells = locator.locate(Xc)
+        try:
+            cells = locator.locate(Xc, outside=allowed)
+        except ParameterError as err:
+            raise TransferError(
+                f"a state on the mesh hmax {_mesh_name(old)} cannot be carried to the mesh "
+                f"hmax {_mesh_name(new)}: {err}; a node may lie outside by at most the "
+                f"two meshes' chord errors ({old.sheet_mesh.chord_error:.3g} and "
+                f"{getattr(new.sheet_mesh, 'chord_error', 0.0):.3g}), farther the meshes do "
+                f"not describe one outline") from None
         U[lo:hi] = interpolate(old.basis_u, U_old, Xc, cells)
         if lo < n_v:
             m = min(hi, n_v) - lo
@@ -334,13 +423,44 @@ def transfer(old, w_old, new, *, chunk: int = CHUNK):
     return w
 
 
+def carry_distance(old_mesh, new_mesh, stretch: float = 1.0) -> float:
+    """How far outside the plan of ``old_mesh`` a node of ``new_mesh`` may lie
+    and still be carried (in ``old_mesh``'s coordinates; ``stretch`` the
+    factor by which the old problem stretches its mesh in x): the sum of the
+    two meshes' chord errors (:attr:`~skfem_sheet.mesh.SheetMesh.chord_error`;
+    the new one's in the old coordinates, at most ``1 / stretch`` times as
+    large), plus round-off.  Both polygons lie within their chord error of the
+    one outline, so a point of one lies within the sum of the other.  0 for
+    straight outlines (the trapezoid: its meshes' boundaries coincide)."""
+    c_old = float(getattr(old_mesh, "chord_error", 0.0))
+    c_new = float(getattr(new_mesh, "chord_error", 0.0)) * max(1.0, 1.0 / float(stretch))
+    if c_old == 0.0 and c_new == 0.0:
+        return 0.0
+    return c_old + c_new + 1e-9 * max(1.0, float(old_mesh.length))
+
+
+def _mesh_name(problem) -> str:
+    m = problem.sheet_mesh
+    return f"{m.hmax:g}" + (f" refined {m.refine}x" if m.refine else "") + \
+        f" (L/a {problem.length:g})"
+
+
 def _clip_to_sheet(X, mesh, eps=1e-12):
-    """Move points that round-off put just outside the trapezoid back in."""
+    """Move points that round-off put just outside the sheet back in: into
+    ``0 <= x <= L``, the thickness and (a half mesh) ``y >= 0``, and for the
+    trapezoid, whose edges are straight and meshed exactly, into its width.
+    (A curved outline is not clipped to: its meshes' polygons differ by their
+    chord errors, and :meth:`ExtrudedLocator.locate` carries a node just
+    outside from its nearest cell.)"""
     X = X.copy()
     L, b, h = mesh.length, mesh.tip_width, mesh.thickness
     X[:, 0] = np.clip(X[:, 0], 0.0, L)
-    half_width = 0.5 * (1.0 + (b - 1.0) * X[:, 0] / L)
     lo = 0.0 if mesh.half else -1.0
-    X[:, 1] = np.clip(X[:, 1], lo * half_width, half_width) * (1 - eps)
+    planform = getattr(mesh, "planform", None)
+    if planform is None or (planform.is_linear and not planform.bites):
+        half_width = 0.5 * (1.0 + (b - 1.0) * X[:, 0] / L)
+        X[:, 1] = np.clip(X[:, 1], lo * half_width, half_width) * (1 - eps)
+    elif mesh.half:
+        X[:, 1] = np.maximum(X[:, 1], 0.0)
     X[:, 2] = np.clip(X[:, 2], -h / 2, h / 2)
     return X

@@ -51,6 +51,21 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   none, and ends the branch where the load turns back with one eigenvalue
   crossing.
 
+- **turns too sharp for the steps**: where the branch turns back within
+  less than the smallest step (a hairpin), every step beyond the turn fails,
+  and a point accepted to the loose tolerance of the points on the way can
+  even lie past it, where Newton's iterates wander about the fold state.  A
+  point's error must therefore be at most a tenth of its distance from the
+  last point (:class:`SecantTest`); a turn located behind the last point (or
+  not located from the interpolated turn) is approached along the branch
+  within the step; and where the steps shrink below the minimum, the last
+  points are checked as equilibria to the end tolerance (those that are not
+  are dropped) and the turn ahead of the last point of the branch is
+  approached along its tangent and located (:func:`_fold_where_stalled`),
+  one eigenvalue crossing confirmed.  A stall without such a turn ahead is
+  reported as a failure that says what was found (an inertia change without
+  a turn: a branch point).
+
 The driver ends at the fold: what happens there (a snap onto another branch)
 is the caller's.
 
@@ -83,11 +98,19 @@ from .corrector import (
     correct,
     plain_linearization,
 )
-from .fold import fold_on_branch, locate_fold, section_linearization, unit_tangent
+from .fold import (
+    arclength_point,
+    fold_between,
+    fold_on_branch,
+    locate_fold,
+    section_linearization,
+    tangent_at,
+    unit_tangent,
+)
 from .protocol import Counting, EngineFailure, Stats, parameter_index
 from .steps import StepRule, corrector_distance
 
-__all__ = ["NATURAL_SLOPE", "ramp"]
+__all__ = ["NATURAL_SLOPE", "SecantTest", "ramp"]
 
 log = logging.getLogger(__name__)
 
@@ -125,11 +148,63 @@ def _predict(points, i, at, value, t):
     return last.u + du, p
 
 
-def _natural(counter, u, u_pred, p_pred, tol):
-    """Newton at the prediction's parameter from the prediction."""
-    res = correct(counter, u_pred, p_pred, plain_linearization(counter, reference=u), tol,
-                  converged=ChordTest(counter, tol, start=u_pred))
-    return res
+class SecantTest:
+    """The step corrector's stopping test: :class:`~skfem_sheet.engine.corrector.ChordTest`
+    (the residual and the simplified-Newton correction at the iterate within
+    the tolerances), and the iterate's error small against its distance from
+    the last point: the simplified correction (the error estimate) at most
+    :attr:`SECANT_ACCURACY` times that distance.
+
+    The next step is predicted along the secant of the last two points, so a
+    point's error ``e`` turns the secant's direction by about ``e / chord``;
+    a tenth keeps it within the accuracy that the points on the way are
+    solved to anyway (a tenth of the nominal corrector distance,
+    ``StepOptions.intermediate_utol``), where the steps are nominal; only
+    short steps, near a fold, ask more of their points than that.  Past a
+    fold, where no equilibrium is near, Newton's iterates wander about the
+    fold state (the Newton map of ``x^2 + e = 0`` is chaotic) with
+    corrections of the size of the short steps that led there; one of them
+    can meet a loose tolerance, but not a tenth of its distance from the
+    last point, and such a point is not taken for a point of the branch (the
+    secant through it would point anywhere).  The parameter part of the
+    distance counts divided by the chord test's ``parameter_scale``.
+
+    Examples
+    --------
+    >>> from skfem_sheet.engine import FunctionProblem
+    >>> P = Counting(FunctionProblem(lambda u, p: u**2 - p[0], lambda u, p: np.diag(2 * u)))
+    >>> tol = DEFAULT_TOLERANCES
+    >>> test = SecantTest(ChordTest(P, tol), P, np.array([1.0]), np.array([1.0]))
+    >>> r = correct(P, np.array([1.0]), np.array([2.0]), plain_linearization(P), tol,
+    ...             converged=test)
+    >>> r.converged, round(float(r.u[0]), 10)
+    (True, 1.4142135624)
+    """
+
+    #: Largest error of an accepted point, relative to its distance from the
+    #: last point (see the class).
+    SECANT_ACCURACY = 0.1
+
+    def __init__(self, test: ChordTest, counter, u_last, p_last):
+        self.test, self.counter = test, counter
+        self.last = (np.asarray(u_last, dtype=float), np.asarray(p_last, dtype=float))
+
+    def __call__(self, u, p, fact, extra):
+        if not self.test(u, p, fact, extra):
+            return False
+        u0, p0 = self.last
+        dp = np.asarray(p, dtype=float) - p0
+        chord = max(self.counter.correction_norm(np.asarray(u) - u0),
+                    float(np.abs(dp).max()) / self.test.scale if dp.size else 0.0)
+        return self.test.norms[-1] <= self.SECANT_ACCURACY * chord
+
+
+def _natural(counter, u, p, u_pred, p_pred, tol):
+    """Newton at the prediction's parameter from the prediction (the last
+    point ``(u, p)``)."""
+    test = SecantTest(ChordTest(counter, tol, start=u_pred), counter, u, p)
+    return correct(counter, u_pred, p_pred, plain_linearization(counter, reference=u), tol,
+                   converged=test)
 
 
 def _arclength(counter, u, p, u_pred, p_pred, i, tol):
@@ -142,10 +217,10 @@ def _arclength(counter, u, p, u_pred, p_pred, i, tol):
     def distance(uu, pp):
         return counter.inner(t_u, uu - u) + t_p * (pp[i] - p[i]) - h
 
+    test = ChordTest(counter, tol, distance, max(abs(t_p), 1e-12), start=u_pred)
     return correct(counter, u_pred, p_pred,
                    section_linearization(counter, i, t_u, t_p, distance, reference=u),
-                   tol, converged=ChordTest(counter, tol, distance, max(abs(t_p), 1e-12),
-                                            start=u_pred))
+                   tol, converged=SecantTest(test, counter, u, p))
 
 
 def _turn_bound(points, rate_at):
@@ -261,6 +336,118 @@ def _locate(counter, i, p_ref, nodes, tol, check_inertia, ptol):
     return fold
 
 
+def _turn_ahead(counter, i, u, p, t, h, tol, check_inertia, max_corrections=24):
+    """The fold ahead of the equilibrium ``(u, p)`` (unit tangent ``t``, the
+    branch's direction) within about the arclength ``2 h``: pseudo-arclength
+    corrections along the tangent of each point (not a secant), to ``tol``,
+    halved where they fail (the section lies past a sharp turn, which the
+    branch does not reach; a correction is given up once its first Newton
+    step is longer than the section's distance, the first-order estimate of
+    how far it must go), until the tangent's load component changes sign;
+    then the fold between those two points
+    (:func:`~skfem_sheet.engine.fold.fold_between`).  None if no sign
+    change within ``max_corrections`` corrections."""
+    h_min = h * 2.0**-14
+    for _ in range(max_corrections):
+        try:
+            res = arclength_point(counter, i, t, u, p, h,
+                                  replace(tol, max_correction=min(tol.max_correction, h)))
+            t_new = tangent_at(counter, res, t) if res.converged else None
+        except EngineFailure:
+            res, t_new = None, None
+        log.debug("turn ahead of %.8g: step %.3g %s%s", p[i], h,
+                  "failed" if t_new is None else f"to {res.p[i]:.8g}, t_p {t_new[1]:.3g}",
+                  "" if res is None else f" ({res.iterations} iterations)")
+        if t_new is None:
+            h *= 0.5
+            if h < h_min:
+                return None
+            continue
+        if np.sign(t_new[1]) != np.sign(t[1]):
+            try:
+                return fold_between(counter, i, t, u, p, h, res, t_new, tol, check_inertia)
+            except EngineFailure:
+                return None
+        u, p, t = res.u, res.p, t_new
+    return None
+
+
+def _on_the_branch(counter, point, tol, end_tol) -> bool:
+    """Whether a point accepted to the loose tolerance ``tol`` is a point of
+    the branch: Newton from it converges to ``end_tol`` within ``tol.utol``
+    of it (past a fold, where no equilibrium is near, it does not)."""
+    try:
+        res = correct(counter, point.u, point.p, plain_linearization(counter), end_tol)
+    except EngineFailure:
+        return False
+    return bool(res.converged and counter.correction_norm(res.u - point.u) <= tol.utol)
+
+
+def _behind(fold, p_last, direction, fold_tol) -> bool:
+    """Whether ``fold`` lies behind ``p_last`` in the direction of the ramp
+    (by more than the fold tolerance): not the turn of a branch that went
+    on to ``p_last``."""
+    return (fold.value - float(p_last)) * direction < -fold_tol * max(1.0, abs(fold.value))
+
+
+def _fold_where_stalled(counter, points, i, direction, tol, end_tol, fold_tol, k,
+                        minimum):
+    """The fold at which the steps stalled: ``(fold, kept)`` (``kept`` the
+    number of points that lie on the branch before it), or ``(None, why)``.
+
+    Steps shrink below the minimum, Newton failing for every one however
+    short, where the branch ends ahead in a turn too sharp for the steps:
+    natural corrections fail beyond a fold, pseudo-arclength sections past a
+    hairpin turn miss the branch, and along a secant whose direction is off
+    (through a point accepted to the loose tolerance of the points on the
+    way past the fold, where Newton's iterates wander about the fold state,
+    :class:`SecantTest`) every section does.  The last points are checked
+    first, latest first: a point of the branch is an equilibrium to
+    ``end_tol`` within the loose tolerance ``tol.utol`` of itself (Newton from
+    it converges there); points that are not lie past the fold and are
+    dropped.  From the last point of the branch the turn is approached along
+    the branch (:func:`_turn_ahead`, from its tangent, within the arclength
+    to the first point dropped, or the minimum step) and located there, and
+    kept if it is the branch's turning point ahead: the load turns back
+    there (solutions behind it) and one eigenvalue crosses zero (the count
+    ``k`` of the branch and one more)."""
+    reach = None
+    for kept in range(len(points), max(0, len(points) - 4), -1):
+        pt = points[kept - 1]
+        try:
+            res = correct(counter, pt.u, pt.p, plain_linearization(counter), end_tol)
+        except EngineFailure:
+            res = None
+        if res is None or not res.converged or \
+                counter.correction_norm(res.u - pt.u) > tol.utol:  # (as _on_the_branch)
+            log.debug("stalled: the point at %.6g is not on the branch", pt.p[i])
+            reach = pt
+            continue
+        try:
+            t = _tangent(counter, res, i)
+        except EngineFailure as err:
+            return None, f"no tangent at the last point of the branch ({err})"
+        if t[1] * direction < 0:
+            t = (-t[0], -t[1])
+        if reach is not None:  # the fold lies before the first point dropped
+            h = 0.5 * (reach.s - pt.s)
+        else:  # within the steps that failed from the last point: the last step's length
+            h = 0.5 * (pt.s - points[kept - 2].s) if kept > 1 else minimum
+        fold = _turn_ahead(counter, i, res.u, res.p, t, h, end_tol, True)
+        if fold is None:
+            return None, f"no turn of the load found ahead of {pt.p[i]:.6g}"
+        log.debug("stalled: fold from %.6g at %.8g, side %s, crossing %s", pt.p[i], fold.value,
+                  fold.side, fold.crossing)
+        lo, hi = sorted(fold.crossing) if fold.crossing is not None else (None, None)
+        if _behind(fold, pt.p[i], direction, fold_tol) or fold.side != -direction or lo is None or hi - lo != 1 \
+                or (k is not None and lo != k):
+            return None, (f"the turn located ahead of {pt.p[i]:.6g}, at {fold.value:.6g} (side "
+                          f"{fold.side}, inertia {fold.crossing}), is not where the branch "
+                          f"turns back with one eigenvalue crossing")
+        return replace(fold, crossing=(lo, hi)), kept
+    return None, "no point near the end is an equilibrium to the end tolerance"
+
+
 def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
          tol: Tolerances = DEFAULT_TOLERANCES, end_tol: Tolerances | None = None,
          start=None, on_step=None, progress=None, max_points: int = 1000,
@@ -354,7 +541,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         if natural:
             value = p[i] + direction * min(h * slope, remaining)
             u_pred, p_pred = _predict(points, i, "p", value, t)
-            res = _natural(counter, u, u_pred, p_pred, step_tol)
+            res = _natural(counter, u, p, u_pred, p_pred, step_tol)
         else:
             u_pred, p_pred = _predict(points, i, "s", points[-1].s + h, t)
             res = _arclength(counter, u, p, u_pred, p_pred, i, step_tol)
@@ -364,7 +551,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
                 a = (stop - p[i]) / (res.p[i] - p[i])
                 u_pred, p_pred = u + a * (res.u - u), res.p.copy()
                 p_pred[i] = stop
-                res = _natural(counter, u, u_pred, p_pred, step_tol)
+                res = _natural(counter, u, p, u_pred, p_pred, step_tol)
         dist = corrector_distance(counter, res, u_pred, p_pred) if res.converged else None
         log.debug("step h=%.4g (%s, slope %.3g): p %.6g -> %.6g, converged %s, distance %s, "
                   "%d iterations %s", h, "natural" if natural else "arclength", slope, p[i],
@@ -388,6 +575,24 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             nodes.append((points[-1].s + chord, res.u, float(res.p[i])))
             f0 = counter.stats().factorizations
             fold = _locate(counter, i, p, nodes, end_tol, check_inertia, fold_tol)
+            if fold is not None and _behind(fold, p[i], direction, fold_tol) \
+                    and not _on_the_branch(counter, points[-1], tol, end_tol):
+                # the last point, accepted to the loose tolerance of the points
+                # on the way, lies past the fold (no equilibrium there): the
+                # fold is the branch's turn, and the point is withdrawn
+                points.pop()
+                return "fold", replace(fold, crossing=fold.crossing or (k, k_new))
+            if fold is None or _behind(fold, p[i], direction, fold_tol):
+                # not located from the interpolated turn, or a fold behind the
+                # last point (the branch reached p: another fold, where the
+                # interpolated start led): the turn lies within the step from
+                # the last point, approached along the branch
+                log.debug("fold %s: the turn approached along the branch from %.8g",
+                          "not located" if fold is None else f"located at {fold.value:.8g}, "
+                          "behind the last point", p[i])
+                fold = _turn_ahead(counter, i, u, p, t, 0.5 * chord, end_tol, check_inertia)
+                if fold is not None and _behind(fold, p[i], direction, fold_tol):
+                    fold = None
             log.debug("fold located with %d factorisations: %s",
                       counter.stats().factorizations - f0, None if fold is None else fold.value)
             if fold is not None and fold.crossing is None:
@@ -397,6 +602,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             return (f"the parameter turned but the inertia went from {k} to {k_new} "
                     f"(not one eigenvalue crossing)"), None
         if k is not None and k_new is not None and k_new != k:
+            without_turn.append((float(p[i]), float(res.p[i]), k, k_new))
             return f"the inertia changed from {k} to {k_new} without a turning point", None
         return "", (du / chord, dq / chord, chord, k_new)  # the secant
 
@@ -466,6 +672,7 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         return ""
 
     h, retried, candidate, natural_ok = rule.initial, False, None, True
+    without_turn = []  # (p, p of the step, k, k_new): inertia changes without a turn
     while True:
         if (stop - points[-1].p[i]) * direction <= 1e-12 * max(1.0, abs(stop)):
             return finish(completed=True)
@@ -521,8 +728,22 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
             retried = True
             h *= 0.5
             if h < rule.minimum:
-                return finish(reason=f"step below {rule.minimum:g} at p = "
-                              f"{points[-1].p[i]:.6g} ({why})")
+                fold, kept = _fold_where_stalled(counter, points, i, direction, tol, end_tol,
+                                                 fold_tol, k, rule.minimum)
+                if fold is not None:
+                    del points[kept:]
+                    return finish(reason=f"fold at {fold.value:.10g} (where the steps stalled)",
+                                  folds=(fold,))
+                last = float(points[-1].p[i])
+                near = [x for x in without_turn if x[0] == last]
+                if near:  # an eigenvalue crosses zero ahead, and the load does not turn
+                    a, b, k0, k1 = near[-1]
+                    return finish(reason=f"a branch point between p = {a:.6g} and {b:.6g}: "
+                                  f"the inertia changes from {k0} to {k1} there without a turn "
+                                  f"of the load (one eigenvalue crosses zero; the load path does "
+                                  f"not switch branches there)")
+                return finish(reason=f"step below {rule.minimum:g} at p = {last:.6g} ({why}); "
+                              f"{kept}")
             continue
         # the next step does not grow after a rejection (this one was just
         # found too long), nor after a correction that used more than half of
