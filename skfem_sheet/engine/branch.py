@@ -413,7 +413,8 @@ def sweep(problem, u0, p0, param, values, *, tol: Tolerances = DEFAULT_TOLERANCE
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
-              keep_states: bool = True, progress=None, on_step=None, start=None) -> Branch:
+              keep_states: bool = True, progress=None, on_step=None, start=None,
+              turn=None) -> Branch:
     """Pseudo-arclength continuation in one parameter, through folds.
 
     Parameters
@@ -440,6 +441,15 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     start : (u, factorization), optional
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
+    turn : float, optional
+        Step control by the curve's bending (radians): the angle between the
+        unit tangents of consecutive points (in the norm of ``ds``) is kept
+        near ``turn``: a step that turned by more than twice as much is
+        rejected and halved (down to ``ds_min``), and the next step is scaled
+        by ``turn / angle`` (between 1/2 and the growth after an easy
+        correction, 1.5), so that the points fall densely where the curve
+        bends and sparsely where it is straight.  Default: none (the steps
+        grow after easy corrections up to ``ds_max``).
 
     Returns
     -------
@@ -454,6 +464,15 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     ...               direction=-1)
     >>> b.completed, [round(float(f.value), 10) for f in b.folds]
     (True, [-0.3849001795, 0.3849001795])
+
+    With the step control by the bending, the points crowd at the folds:
+
+    >>> b = arclength(P, np.array([-1.5]), np.array([1.875]), 0, (-2.0, 2.0), ds=0.05,
+    ...               ds_max=1.0, direction=-1, turn=0.1)
+    >>> s = np.array([pt.s for pt in b.points]); u = np.array([pt.u[0] for pt in b.points])
+    >>> step = np.diff(s)
+    >>> bool(step[np.argmin(np.abs(u[1:] - 0.577))] < 0.5 * step.max())  # near a fold
+    True
     """
     counter = problem if isinstance(problem, Counting) else Counting(problem)
     start_stats = counter.stats()
@@ -467,6 +486,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     ds = check_range("ds", ds, 0, None, lo_open=True)
     ds_min = check_range("ds_min", ds_min, 0, ds, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, None)
+    if turn is not None:
+        turn = check_range("turn", turn, 0, np.pi / 2, lo_open=True)
 
     def finish(points, folds, completed=False, reason=""):
         return Branch(tuple(points), i, tuple(folds), completed, reason, (),
@@ -499,6 +520,13 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
             t_new = tangent_at(counter, res, t)
         except EngineFailure as err:
             return finish(points, folds, reason=f"tangent: {err}")
+        angle = None
+        if turn is not None:
+            cos = counter.inner(t[0], t_new[0]) + t[1] * t_new[1]
+            angle = float(np.arccos(np.clip(cos, -1.0, 1.0)))
+            if angle > 2.0 * turn and 0.5 * h >= ds_min:
+                h *= 0.5  # the step turned too far: the same step, halved
+                continue
         k_new = res.factorization.inertia()
         prev_point = points[-1]
         if not keep_states:
@@ -517,5 +545,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
             progress(float(p[i]))
         if not lo <= p[i] <= hi:
             return finish(points, folds, completed=True)
-        h = min(ds_max, h * (1.5 if res.iterations <= 3 else 1.0))
+        grow = 1.5 if res.iterations <= 3 else 1.0
+        if angle is not None:
+            grow = min(grow, max(0.5, turn / angle if angle > 0 else np.inf))
+        h = max(ds_min, min(ds_max, h * grow))
     return finish(points, folds, reason="max_points")
