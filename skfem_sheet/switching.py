@@ -79,7 +79,7 @@ from .continuation import StepOptions, end_state_verdict, newton_tolerances, sna
 from .engine import EngineFailure, StepRule, arclength, newton, ramp
 from .engine.fold import fold_on_branch, locate_fold
 from .engine.protocol import Counting
-from .io import dumps_json, write_json
+from .io import atomic_write, check_writable, dumps_json, write_json
 from .linalg import make_linear_solver
 from .newton import NewtonOptions, Stats, polish
 from .params import ParameterError, Sheet, check_range
@@ -162,10 +162,9 @@ def si_scales(sheet: Sheet):
     """The SI scales a sheet was made with, or None (a dimensionless sheet).
 
     The one place where the switching analysis reads them from a
-    :class:`~skfem_sheet.params.Sheet`: its ``base_width``, ``density`` and
-    ``gravity`` where it keeps them (a sheet made by
-    :meth:`~skfem_sheet.params.Sheet.from_si` that remembers its scales);
-    a sheet that does not gives None, and :func:`switching` then takes
+    :class:`~skfem_sheet.params.Sheet`: its ``si`` (the scales a sheet made
+    by :meth:`~skfem_sheet.params.Sheet.from_si` keeps: base width,
+    density, gravity), where it has them; without, :func:`switching` takes
     them from its ``si`` argument.
 
     Examples
@@ -173,12 +172,10 @@ def si_scales(sheet: Sheet):
     >>> si_scales(Sheet(length=1.3, curvature=2.5)) is None
     True
     """
-    a = getattr(sheet, "base_width", None)
-    rho = getattr(sheet, "density", None)
-    if a is None or rho is None:
+    si = getattr(sheet, "si", None)
+    if si is None:
         return None
-    g = getattr(sheet, "gravity", None)
-    return SIScales(float(a), float(rho), 9.81 if g is None else float(g))
+    return SIScales(float(si.base_width), float(si.density), float(si.gravity))
 
 
 # -----------------------------------------------------------------------------
@@ -369,6 +366,22 @@ class ForceCurve:
         if kind == "point":  # the first point (for examples): the start
             return 0
         return self.index(kind)
+
+    def to_csv(self) -> str:
+        """The points as CSV text: ``force, tip_displacement, deflection, energy,
+        stiffness, negative_eigenvalues, kind`` (units of ``rho g a^3``, a,
+        ``rho g a^4``, ``rho g a^2``; an unknown inertia empty)."""
+        lines = ["force,tip_displacement,deflection,energy,stiffness,negative_eigenvalues,kind"]
+        for p in self.points:
+            k = "" if p.negative_eigenvalues is None else str(p.negative_eigenvalues)
+            lines.append(f"{p.force!r},{p.tip_displacement!r},{p.deflection!r},{p.energy!r},"
+                         f"{p.stiffness!r},{k},{p.kind}")
+        return "\n".join(lines) + "\n"
+
+    def write(self, filename) -> None:
+        """Write :meth:`to_csv` to ``filename`` (atomically)."""
+        check_writable("filename", filename, [".csv"])
+        atomic_write(filename, self.to_csv())
 
     def summary(self) -> dict:
         """JSON-ready: the arrays, the folds, the shape."""
@@ -1130,6 +1143,10 @@ def _assemble(sheet, hmax, r, curve, located, direction, notes, si) -> Switching
         if folds:
             what += (f"; under load the curve has {len(folds)} fold(s) in F ("
                      + ", ".join(f"{f.force:+.4g}" for f in folds) + f"): {curve.shape}")
+        else:
+            side = "pushed down" if direction < 0 else "pulled up"
+            what += (f"; {side} to F = {curve.forces[np.argmax(np.abs(curve.forces))]:+.4g} "
+                     f"({curve.reason or 'the end of the trace'}) without a fold")
         bd = bu = sd = se = nan
         sk = None
         if direction < 0:
