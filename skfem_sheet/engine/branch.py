@@ -445,7 +445,14 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         Step control by the curve's bending (radians): the angle between the
         unit tangents of consecutive points (in the norm of ``ds``) is kept
         near ``turn``: a step that turned by more than twice as much is
-        rejected and halved (down to ``ds_min``), and the next step is scaled
+        rejected and halved (down to ``ds_min``), as is a step whose new
+        tangent points back along its chord (the curve turned by more than a
+        right angle within it: a sharp fold crossed, where the tangent,
+        oriented along the last one, would send the continuation back the
+        way it came) or across which the inertia changes while the
+        tangent's parameter component keeps its sign (the same, where the
+        chord does not show it; or a branch point, which the halved steps
+        expose down to ``ds_min``), and the next step is scaled
         by ``turn / angle`` (between 1/2 and the growth after an easy
         correction, 1.5), so that the points fall densely where the curve
         bends and sparsely where it is straight.  Default: none (the steps
@@ -524,7 +531,19 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         if turn is not None:
             cos = counter.inner(t[0], t_new[0]) + t[1] * t_new[1]
             angle = float(np.arccos(np.clip(cos, -1.0, 1.0)))
-            if angle > 2.0 * turn and 0.5 * h >= ds_min:
+            # the new tangent is oriented along the last one (within a right
+            # angle of it): where the curve turned by more within the step (a
+            # sharp fold crossed), it points back along the chord, and the
+            # continuation would run back the way it came
+            back = (counter.inner(res.u - u, t_new[0])
+                    + (res.p[i] - p[i]) * t_new[1]) < 0
+            # ... or it did and the chord does not show it, but the inertia
+            # does: one eigenvalue crossed zero while the tangent kept its
+            # parameter component's sign
+            k_last, k_step = points[-1].negative_eigenvalues, res.factorization.inertia()
+            hidden = (k_last is not None and k_step is not None and k_step != k_last
+                      and np.sign(t_new[1]) == np.sign(t[1]))
+            if (back or hidden or angle > 2.0 * turn) and 0.5 * h >= ds_min:
                 h *= 0.5  # the step turned too far: the same step, halved
                 continue
         k_new = res.factorization.inertia()
