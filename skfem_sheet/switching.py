@@ -80,7 +80,7 @@ from .engine import EngineFailure, StepRule, arclength, newton, ramp
 from .engine.fold import fold_on_branch, locate_fold
 from .engine.protocol import Counting
 from .io import atomic_write, check_writable, dumps_json, write_json
-from .linalg import make_linear_solver
+from .linalg import LinearSolverError, make_linear_solver
 from .newton import NewtonOptions, Stats, polish
 from .params import ParameterError, Sheet, check_range
 from .result import Result, SolveError
@@ -120,7 +120,7 @@ class SIScales:
     density ``rho`` (kg/m^3), gravity ``g`` (m/s^2).
 
     Forces are in units of ``rho g a^3`` (N), energies of ``rho g a^4`` (J),
-    lengths of ``a`` (m).
+    lengths of ``a`` (m, :attr:`base_width`).
 
     Examples
     --------
@@ -147,11 +147,6 @@ class SIScales:
     def energy(self) -> float:
         """The unit of energy, ``rho g a^4`` in joules."""
         return self.force * self.base_width
-
-    @property
-    def length(self) -> float:
-        """The unit of length, ``a`` in metres."""
-        return self.base_width
 
     def to_json(self) -> dict:
         return {"base_width": self.base_width, "density": self.density, "gravity": self.gravity,
@@ -301,50 +296,56 @@ class ForceCurve:
     def stable(self):
         return [p.stable for p in self.points]
 
-    def index(self, kind: str) -> int:
-        """The position of the point of ``kind`` (``"saddle"``, ``"fold 1"`` ...)."""
-        for i, p in enumerate(self.points):
-            if p.kind == kind or (kind.startswith("fold") and p.kind == "fold"
-                                  and self._fold_names()[i] == kind):
-                return i
-        raise ParameterError(f"kind must be one of the curve's points "
-                             f"({', '.join(sorted(set(self._fold_names().values()) | {p.kind for p in self.points if p.kind != 'fold'}))}), "
-                             f"got {kind!r}")
-
-    def _fold_names(self) -> dict:
-        names, n = {}, 0
-        for i, p in enumerate(self.points):
+    def names(self) -> list:
+        """The name of every point: its kind, the folds numbered in the order
+        traced (``"start"``, ``"point"``, ``"fold 1"``, ..., ``"saddle"``,
+        ``"fold 2"``, ..., ``"end"``)."""
+        out, n = [], 0
+        for p in self.points:
             if p.kind == "fold":
                 n += 1
-                names[i] = f"fold {n}"
-        return names
+                out.append(f"fold {n}")
+            else:
+                out.append(p.kind)
+        return out
+
+    def index(self, name: str) -> int:
+        """The position of the point named ``name`` (:meth:`names`)."""
+        names = self.names()
+        if name == "point" or name not in names:
+            allowed = ", ".join(n for n in names if n != "point")
+            raise ParameterError(f"name must be one of the curve's points ({allowed}), got "
+                                 f"{name!r}")
+        return names.index(name)
 
     @property
     def folds(self) -> tuple:
         """The fold points, in the order traced."""
         return tuple(p for p in self.points if p.kind == "fold")
 
-    def point(self, kind: str):
-        """The point of ``kind``, or None."""
+    def point(self, name: str):
+        """The point named ``name`` (``"saddle"``, ``"end"``, ``"fold 1"`` ...), or None."""
         try:
-            return self.points[self.index(kind)]
+            return self.points[self.index(name)]
         except ParameterError:
             return None
 
     def work(self, start: str = "start", end: str = "saddle") -> float:
         """``int F dw_tip`` along the curve from the point ``start`` to ``end``
-        (Hermite cubics in ``w_tip`` with the slopes at the points; trapezoids
-        where the tip turns, ``w_tip`` not monotone): by the work identity
-        ``Pi(end) - Pi(start)``.
+        (names as :meth:`names`; Hermite cubics in ``w_tip`` with the slopes at
+        the points; trapezoids where the tip turns, ``w_tip`` not monotone): by
+        the work identity ``Pi(end) - Pi(start)``.
 
         Examples
         --------
-        >>> pts = tuple(CurvePoint(w * w, w, 0.0, 0.0, 2 * w, 0) for w in (0.0, 0.5, 1.0))
-        >>> round(ForceCurve(pts[:1] + (replace(pts[1], kind="saddle"),) + pts[2:], 0.1, -1,
-        ...                  True, "", "one S").work("point", "saddle"), 12)
-        0.041666666667
+        On ``F = w^2`` from ``w = 0`` to 1 (slope ``2 w``; exact: 1/3):
+
+        >>> pts = [CurvePoint(w * w, w, 0.0, 0.0, 2 * w, 0, k)
+        ...        for w, k in ((0.0, "start"), (0.5, "point"), (1.0, "saddle"))]
+        >>> round(ForceCurve(tuple(pts), 0.1, -1, True, "", "one S").work(), 12)
+        0.333333333333
         """
-        i, j = (self._first(start), self.index(end))
+        i, j = self.index(start), self.index(end)
         sign = 1.0
         if j < i:
             i, j, sign = j, i, -1.0
@@ -359,13 +360,6 @@ class ForceCurve:
             else:
                 total += 0.5 * (b.tip_displacement - a.tip_displacement) * (a.force + b.force)
         return sign * total
-
-    def _first(self, kind):
-        if kind == "start":
-            return 0
-        if kind == "point":  # the first point (for examples): the start
-            return 0
-        return self.index(kind)
 
     def to_csv(self) -> str:
         """The points as CSV text: ``force, tip_displacement, deflection, energy,
@@ -793,7 +787,7 @@ class Switching:
         if self.si is None:
             raise ParameterError("in_si needs the sheet's SI scales: switching(..., si=...) or "
                                  "with_si(...)")
-        f, e, a = self.si.force, self.si.energy, self.si.length
+        f, e, a = self.si.force, self.si.energy, self.si.base_width
         return {"force_down_N": self.force_down * f, "force_up_N": self.force_up * f,
                 "weight_N": self.weight * f,
                 "barrier_down_J": self.barrier_down * e, "barrier_up_J": self.barrier_up * e,
@@ -1207,6 +1201,7 @@ class TipForceRamp:
         One per fold met on the way (``phase`` ``"tip force"``, ``load`` the
         fold's F), the sheet landing on the stable state at that force.
     factorizations : int
+        Every factorisation of the ramp, the snaps and the end state's verdict.
     problem : SheetProblem
         The sheet with the tip force ``force``.
     w : ndarray
@@ -1316,16 +1311,17 @@ def apply_tip_force(result: Result, force: float, *, solver: str = "auto",
             break
     end = problem.with_tip_force(F)
     w = P.full(u, [F])
-    stable, k = end_state_verdict(end, linear, w, stats) if not reason else (None, None)
+    stable = k = None
     if not reason:
-        K = end.tangent(w)
-        linear.factorize(K, w)
-        stats.factorizations += 1
-        stable, k = end_state_verdict(end, linear, w, stats)
-    converged = not reason and stable is not False
-    if not reason and stable is False:
-        reason = f"ended on an unstable equilibrium ({k} negative eigenvalue(s))"
-    return TipForceRamp(F, converged, reason, float(result.deflection),
+        # the verdict from the Hessian at the end state itself
+        try:
+            linear.factorize(end.tangent(w), w)
+            stats.factorizations += 1
+            stable, k = end_state_verdict(end, linear, w, stats)
+        except LinearSolverError as err:
+            reason = f"singular tangent at the end state ({err})"
+        if stable is False:
+            reason = f"ended on an unstable equilibrium ({k} negative eigenvalue(s))"
+    return TipForceRamp(F, not reason, reason, float(result.deflection),
                         tip_deflection(end, w), end.tip_displacement(w), stable, k,
-                        tuple(snaps), int(stats.factorizations + counter.stats().factorizations),
-                        end, w)
+                        tuple(snaps), int(stats.factorizations), end, w)

@@ -21,10 +21,12 @@ figS3  in-plane strains E_ss, E_st, E_tt and stresses T_ss, T_tt of a      one F
        gravity-free rectangle, L/a 1.5, a/R 0.5, h/a 0.03175
 figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one FE solve
        rectangle L/a 2, a/R 0.5, h/a 0.03175
-switc- switching forces and energy barriers of the rectangle across its      fold map + switching
-hing   bistable window at a/R 2.5 and 5, the force-deflection curve of        analyses
-       L/a 1.3, a/R 2.5 as an inset (not in the paper: issue 58)
 =====  ==================================================================  =====================
+
+One figure more, not in the paper (issue 58): ``switching``, the switching forces and energy
+barriers of the rectangle across its bistable window at a/R 2.5 and 5, with the
+force-deflection curve of L/a 1.3, a/R 2.5 as an inset (the fold map's rows and the switching
+analyses of :mod:`skfem_sheet.switching`).
 
 The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
 solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and
