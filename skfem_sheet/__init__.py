@@ -34,7 +34,7 @@ _LAZY = {
 }
 
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
-           "CoarseStart", "PathStart", "calibrate", "solve_both", "__version__"]
+           "CoarseStart", "PathStart", "calibrate", "solve_both", "switching", "__version__"]
 
 
 def __getattr__(name):
@@ -46,11 +46,12 @@ def __getattr__(name):
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY) | {"solve"})
+    return sorted(set(globals()) | set(_LAZY) | {"solve", "switching"})
 
 
 class _Package(types.ModuleType):
-    """The package's module type: ``skfem_sheet.solve`` is the function ``solve``.
+    """The package's module type: ``skfem_sheet.solve`` is the function ``solve``
+    (and ``skfem_sheet.switching`` the function ``switching``).
 
     Importing the submodule ``skfem_sheet.solve`` binds it as an attribute of the
     package; this property keeps the name for the function (as ``from .solve import
@@ -63,6 +64,15 @@ class _Package(types.ModuleType):
 
     @solve.setter
     def solve(self, module):    # the import system binding the submodule: keep the function
+        pass
+
+    # the same for ``switching`` (the function of the module skfem_sheet.switching)
+    @property
+    def switching(self):
+        return import_module("skfem_sheet.switching").switching
+
+    @switching.setter
+    def switching(self, module):
         pass
 
 
