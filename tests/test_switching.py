@@ -203,3 +203,25 @@ def test_work_of_hermite_cubics_is_exact_for_a_cubic():
     exact = (w[-1]**4 / 4 - 0.1 * w[-1]**2) - 0.0
     assert c.work("start", "saddle") == pytest.approx(exact, rel=1e-12)
     assert c.work("saddle", "start") == pytest.approx(-exact, rel=1e-12)
+
+
+def test_the_benchmarks_fit_recovers_the_normal_form():
+    """benchmarks/switching.py's scaling fit on exact normal-form data plus the next
+    order: exponents near 1 and 3/2, the zeros of F and barrier^(2/3) at the fold."""
+    import importlib.util
+    import os
+
+    path = os.path.join(os.path.dirname(__file__), os.pardir, "benchmarks", "switching.py")
+    spec = importlib.util.spec_from_file_location("bench_switching", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    L_fold = 1.3494
+    L = L_fold - np.array(bench.DELTAS[:5])
+    d = L_fold - L
+    F = -0.03 * d * (1 + 0.3 * d)
+    B = 0.01 * d**1.5 * (1 + 0.4 * d)
+    fs, local, fz = bench._fit(L, F, L_fold, 1.0)
+    bs, _, bz = bench._fit(L, B, L_fold, 1.5)
+    assert fs == pytest.approx(1.0, abs=0.01) and bs == pytest.approx(1.5, abs=0.01)
+    assert local[0] == pytest.approx(1.0, abs=1e-3)   # the next order fades near the fold
+    assert fz == pytest.approx(L_fold, abs=1e-6) and bz == pytest.approx(L_fold, abs=1e-5)
