@@ -260,7 +260,7 @@ def draw_switching(table, curve=None, quality: str = "paper"):
                     for c in CURVATURES]
         ax_b.legend(handles=handles, loc="lower center", frameon=False)
         if curve is not None and len(curve):
-            _draw_inset(ax_f, curve)
+            _draw_inset(ax_f, curve, _gap(ax_f, table))
         hs = sorted({float(h) for h in table["hmax"]}) if len(table) else []
         mesh_footnote(fig, quality, "FE hmax " + ("/".join(fmt(h) for h in hs) or "?")
                       + "; dotted: the normal form's lines to the folds")
@@ -268,9 +268,24 @@ def draw_switching(table, curve=None, quality: str = "paper"):
     return fig
 
 
-def _draw_inset(ax, curve):
-    """The force-deflection curve of :data:`INSET` in the upper right of ``ax``."""
-    ins = ax.inset_axes([0.58, 0.55, 0.4, 0.42])
+def _gap(ax, table):
+    """``(x0, width)`` in axes fraction of the widest stretch of L between the
+    windows' points (where the inset goes), or the right half if none."""
+    L = np.sort(table.loc[table["bistable"].astype(bool), "length"].to_numpy(float))
+    lo, hi = ax.get_xlim()
+    edges = np.concatenate([[lo], L, [hi]])
+    i = int(np.argmax(np.diff(edges)))
+    a, b = (edges[i] - lo) / (hi - lo), (edges[i + 1] - lo) / (hi - lo)
+    if b - a < 0.25:
+        return 0.55, 0.42
+    pad = 0.06 * (b - a) + 0.03
+    return a + pad, min(0.45, b - a - 2 * pad)
+
+
+def _draw_inset(ax, curve, where=(0.55, 0.42)):
+    """The force-deflection curve of :data:`INSET` in ``ax``, low in it at
+    ``where = (x0, width)`` (axes fraction)."""
+    ins = ax.inset_axes([where[0], 0.14, where[1], 0.42])
     F = curve["force"].to_numpy(float)
     d = curve["deflection"].to_numpy(float)
     k = curve["negative_eigenvalues"].to_numpy(float)
@@ -290,7 +305,8 @@ def _draw_inset(ax, curve):
     ins.set_xlabel("$d/a$", fontsize=6, labelpad=1)
     ins.set_ylabel("$F/W$", fontsize=6, labelpad=1)
     ins.tick_params(labelsize=5.5, pad=1)
-    ins.set_title(f"L/a {fmt(INSET[0])}, a/R {fmt(INSET[1])}", fontsize=6, pad=2)
+    ins.text(0.97, 0.06, f"L/a {fmt(INSET[0])}, a/R {fmt(INSET[1])}", transform=ins.transAxes,
+             ha="right", va="bottom", fontsize=6)
 
 
 def fig_switching(quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True, workers=None,
