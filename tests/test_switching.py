@@ -225,3 +225,32 @@ def test_the_benchmarks_fit_recovers_the_normal_form():
     assert fs == pytest.approx(1.0, abs=0.01) and bs == pytest.approx(1.5, abs=0.01)
     assert local[0] == pytest.approx(1.0, abs=1e-3)   # the next order fades near the fold
     assert fz == pytest.approx(L_fold, abs=1e-6) and bz == pytest.approx(L_fold, abs=1e-5)
+
+
+def test_the_switch_command_writes_the_interfaces_keys(tmp_path, capsys):
+    """The paper's silicone sheet given in SI on the command line (one analysis on hmax
+    0.25): the interface's keys, the SI values beside them, the curve as CSV."""
+    from skfem_sheet.cli import main
+
+    out, curve = tmp_path / "s.json", tmp_path / "c.csv"
+    si = ("base_width=0.05,length=0.065,tip_width=0.05,thickness=1.5875e-3,radius=0.02,"
+          "youngs_modulus=4.5e5,density=1250")
+    assert main(["switch", "--si", si, "--hmax", "0.25", "--json", str(out), "--curve",
+                 str(curve), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "two states at F = 0 (bistable)" in text and " mN" in text
+    data = json.loads(out.read_text())
+    assert data["bistable"] is True and data["force_down"] < 0 < data["force_up"]
+    for key in ("barrier_down", "barrier_up", "saddle_deflection", "fold_down_deflection",
+                "fold_up_deflection", "weight", "shape", "curve"):
+        assert key in data
+    unit = 1250 * 9.81 * 0.05**3  # rho g a^3 in newtons
+    assert data["si"]["force_down_N"] == pytest.approx(data["force_down"] * unit, rel=1e-12)
+    assert data["si"]["barrier_up_J"] == pytest.approx(data["barrier_up"] * unit * 0.05,
+                                                       rel=1e-12)
+    rows = curve.read_text().splitlines()
+    assert rows[0].startswith("force,tip_displacement,deflection") and len(rows) > 20
+    # bad input: one line naming the problem, exit code 2
+    assert main(["switch", "--length", "1", "--tip-width", "0", "--curvature", "2",
+                 "--hmax", "0.25", "--quiet"]) == 2
+    assert "tip face" in capsys.readouterr().err
