@@ -1,6 +1,6 @@
 """Acceptance of the switching analysis (issue 58): forces, barriers, saddle, scaling, cost.
 
-    python benchmarks/switching.py [--parts saddle,work,scaling,force,si,cost,sheets]
+    python benchmarks/switching.py [--parts scaling,saddle,force,cost,sheets]
                                    [--json out.json]
 
 Parts (each printed as a table; with ``--json`` the records are written after
@@ -55,7 +55,7 @@ from skfem_sheet.io import Series, atomic_write, dumps_json
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.newton import NewtonOptions, Stats, newton, polish
 from skfem_sheet.sheet_shape import TOLERANCES, SheetShapeProblem
-from skfem_sheet.switching import SIScales, apply_tip_force, force_curve, switching
+from skfem_sheet.switch import SIScales, apply_tip_force, force_curve, switching
 
 from harness import machine_info, parser
 

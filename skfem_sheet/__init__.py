@@ -31,6 +31,7 @@ _LAZY = {
     "NewtonOptions": "skfem_sheet.newton",
     "StepOptions": "skfem_sheet.continuation",
     "calibrate": "skfem_sheet.calibration",
+    "switching": "skfem_sheet.switch",
 }
 
 __all__ = ["Sheet", "solve", "Result", "SolveError", "NewtonOptions", "StepOptions",
@@ -46,12 +47,11 @@ def __getattr__(name):
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY) | {"solve", "switching"})
+    return sorted(set(globals()) | set(_LAZY) | {"solve"})
 
 
 class _Package(types.ModuleType):
-    """The package's module type: ``skfem_sheet.solve`` is the function ``solve``
-    (and ``skfem_sheet.switching`` the function ``switching``).
+    """The package's module type: ``skfem_sheet.solve`` is the function ``solve``.
 
     Importing the submodule ``skfem_sheet.solve`` binds it as an attribute of the
     package; this property keeps the name for the function (as ``from .solve import
@@ -64,15 +64,6 @@ class _Package(types.ModuleType):
 
     @solve.setter
     def solve(self, module):    # the import system binding the submodule: keep the function
-        pass
-
-    # the same for ``switching`` (the function of the module skfem_sheet.switching)
-    @property
-    def switching(self):
-        return import_module("skfem_sheet.switching").switching
-
-    @switching.setter
-    def switching(self, module):
         pass
 
 

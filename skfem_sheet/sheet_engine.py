@@ -29,7 +29,7 @@ Three kinds of parameters: :class:`SheetLoadProblem` (here) has the loads
 ``p = (curvature, gravity)`` on one mesh (the load paths of
 :mod:`skfem_sheet.continuation`); :class:`SheetForceProblem` (here) has the
 tip force ``p = (tip_force,)`` at fixed loads on one mesh (the
-force-deflection curves of :mod:`skfem_sheet.switching`);
+force-deflection curves of :mod:`skfem_sheet.switch`);
 :class:`skfem_sheet.sheet_shape.SheetShapeProblem`
 has the shape ``(L, b, a/R)`` at full load, on a mesh mapped to it and
 remeshed (bistability, fold curves and paths through parameter space).

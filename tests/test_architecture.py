@@ -47,7 +47,7 @@ LAYERS = {
     "__init__.py": 12,        # the package's facade (Sheet, solve, Result, calibrate, ...)
     "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections
     "states.py": 12,          # solve_both: both load paths, whether their states differ
-    "switching.py": 12,       # switching forces and barriers: the S-curve in the tip force
+    "switch.py": 12,          # switching forces and barriers: the S-curve in the tip force
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
     "plot.py": 14,            # drawing a solved sheet

@@ -17,7 +17,7 @@ from skfem_sheet.cli import main  # noqa: E402
 from skfem_sheet.figures import FIGURES, make_figure  # noqa: E402
 from skfem_sheet.figures import figure_switching as fs  # noqa: E402
 from skfem_sheet.params import Sheet  # noqa: E402
-from skfem_sheet.switching import CurvePoint, ForceCurve  # noqa: E402
+from skfem_sheet.switch import CurvePoint, ForceCurve  # noqa: E402
 
 WINDOWS = {2.5: (1.2, 1.35), 5.0: (1.72, 2.02)}
 

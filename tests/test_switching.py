@@ -21,7 +21,7 @@ from skfem_sheet.analyses.observables import tip_deflection
 from skfem_sheet.linalg import make_linear_solver
 from skfem_sheet.newton import NewtonOptions, Stats, newton, polish
 from skfem_sheet.params import ParameterError
-from skfem_sheet.switching import (
+from skfem_sheet.switch import (
     CurvePoint,
     ForceCurve,
     SIScales,

@@ -17,7 +17,7 @@ from skfem_sheet.newton import NewtonOptions, Stats, newton
 from skfem_sheet.params import ParameterError
 from skfem_sheet.sheet_engine import SheetForceProblem
 from skfem_sheet.solve import build_problem, solve
-from skfem_sheet.switching import TOLERANCES
+from skfem_sheet.switch import TOLERANCES
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 The switching forces (the tip force, total, positive upward, that snaps the
 aloft state down and the drooped state up), the energy barriers between the
 two states and the saddle between them, from the force-deflection curve in
-the tip force (see :mod:`skfem_sheet.switching`).  The sheet is given in its
+the tip force (see :mod:`skfem_sheet.switch`).  The sheet is given in its
 dimensionless parameters or in SI units (``--si``, then the forces are also
 printed in mN and the barriers in microjoules).  ``--json`` writes the
 summary (keys ``force_down``, ``force_up``, ``barrier_down``, ``barrier_up``,
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from ..io import check_writable
 from ..result import SolveError
-from ..switching import CURVE_HMAX, SIScales, switching
+from ..switch import CURVE_HMAX, SIScales, switching
 from .solve import add_sheet_args, parse_si, sheet_from_args, solver_help
 
 __all__ = ["register", "run"]

@@ -26,7 +26,7 @@ figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one F
 One figure more, not in the paper (issue 58): ``switching``, the switching forces and energy
 barriers of the rectangle across its bistable window at a/R 2.5 and 5, with the
 force-deflection curve of L/a 1.3, a/R 2.5 as an inset (the fold map's rows and the switching
-analyses of :mod:`skfem_sheet.switching`).
+analyses of :mod:`skfem_sheet.switch`).
 
 The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
 solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and

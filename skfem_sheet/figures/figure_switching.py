@@ -12,7 +12,7 @@ their state.
 
 Data: the window ``L0* < L < L1*`` from the fold map's rows of the rectangle (the
 rows fig2 draws; :mod:`skfem_sheet.figures.data`), the switching analysis
-(:func:`skfem_sheet.switching.switching`) at lengths spread across it, each cached
+(:func:`skfem_sheet.switch.switching`) at lengths spread across it, each cached
 in ``data_dir/switching-<quality>/`` (one file per length: an interrupted run keeps
 what it finished), and the inset's curve (at paper quality traced on hmax 0.03
 itself).
@@ -34,7 +34,7 @@ from tqdm.auto import tqdm
 
 from ..params import ParameterError, Sheet
 from ..result import SolveError
-from ..switching import switching
+from ..switch import switching
 from .cache import data_folder, load_or_compute
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .data import fold_map_table, map_grid_points, row_branches, select_rows
@@ -157,7 +157,7 @@ def switching_table(quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=
 def switching_curve(quality: str = "quick", data_dir=DEFAULT_DATA_DIR, progress=True, log=None):
     """The inset's force-deflection curve (:data:`INSET`), traced on the
     quality's mesh itself, cached as CSV (the columns of
-    :meth:`~skfem_sheet.switching.ForceCurve.to_csv`)."""
+    :meth:`~skfem_sheet.switch.ForceCurve.to_csv`)."""
     hmax = quality_settings(quality)["hmax"]
     L, c = INSET
     fn = os.path.join(data_folder(data_dir, f"switching-{quality}"),
