@@ -51,12 +51,13 @@ _LAZY = {
     "calibrate": "skfem_sheet.calibration",
     "DEFAULT_HMAX": "skfem_sheet.params",
     "QUICK_HMAX": "skfem_sheet.params",
+    "switching": "skfem_sheet.switch",
 }
 
 __all__ = ["Sheet", "Planform", "solve", "solve_both", "fold_lengths", "s_curve", "fold_curve",
-           "sweep", "figure", "Result", "States", "FoldLengths", "SolveError", "NewtonOptions",
-           "StepOptions", "CoarseStart", "PathStart", "calibrate", "DEFAULT_HMAX", "QUICK_HMAX",
-           "__version__"]
+           "sweep", "figure", "switching", "Result", "States", "FoldLengths", "SolveError",
+           "NewtonOptions", "StepOptions", "CoarseStart", "PathStart", "calibrate",
+           "DEFAULT_HMAX", "QUICK_HMAX", "__version__"]
 
 
 def __getattr__(name):

@@ -567,6 +567,11 @@ class SIScale:
         """rho g a^4 in J: the unit of the energies."""
         return self.stress * self.base_width**3
 
+    @property
+    def force(self) -> float:
+        """rho g a^3 in N: the unit of the forces (the tip force)."""
+        return self.stress * self.base_width**2
+
     def metres(self, x):
         """A length in units of a, in metres (NaN stays NaN)."""
         return x * self.base_width
@@ -574,6 +579,10 @@ class SIScale:
     def to_dict(self) -> dict:
         return {"base_width": self.base_width, "density": self.density,
                 "gravity": self.gravity}
+
+    def to_json(self) -> dict:
+        """Its fields and the units they make (``force_unit_N``, ``energy_unit_J``)."""
+        return {**self.to_dict(), "force_unit_N": self.force, "energy_unit_J": self.energy}
 
     @classmethod
     def of(cls, value):

@@ -7,13 +7,21 @@ material and the clamp), a :class:`~skfem_sheet.discretisation.TaylorHoodSpace`
 :mod:`skfem_sheet.kernels`.  The unknown is the dof vector ``w`` (displacements
 node by node, then vertex pressures); the residual is ``dPi/dw`` at gravity
 factor ``g``, the tangent its Jacobian on the free dofs, ``K_ff``.
+
+A problem may carry a tip force (:meth:`SheetProblem.with_tip_force`): a
+dead load ``F`` (total, positive upward, units of ``rho g a^3``) spread as a
+uniform traction over the tip face ``x = L``.  It adds ``-F f`` to the
+residual (``f``: :attr:`SheetProblem.tip_load`, the face's traction at unit
+total force on the displacement basis) and ``-F w_tip`` to the energy
+(``w_tip``: :meth:`SheetProblem.tip_displacement`, the face's mean vertical
+displacement, the load's work-conjugate); the tangent does not change.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-from skfem import BilinearForm, asm
+from skfem import BilinearForm, ElementTetP2, FacetBasis, LinearForm, asm
 
 from .assembly import Assembler
 from .discretisation import SaddlePointLayout, TaylorHoodSpace
@@ -28,7 +36,7 @@ from .kernels import (
     strain_energy_density,
 )
 from .mesh import SheetMesh
-from .params import Sheet
+from .params import ParameterError, Sheet
 
 __all__ = ["SheetProblem"]
 
@@ -36,6 +44,11 @@ __all__ = ["SheetProblem"]
 @BilinearForm
 def _pressure_mass(p, q, w):
     return p * q
+
+
+@LinearForm
+def _face_integral(v, w):
+    return v
 
 
 def _from_space(name):
@@ -64,21 +77,28 @@ class SheetProblem:
         The assembler of the space (default: built here); share one
         (pattern, work buffers and threads) between problems on one mesh:
         its lock serialises their assemblies.
+    tip_force : float
+        A dead vertical force on the tip face ``x = L`` (total, positive
+        upward, units of ``rho g a^3``; default 0): see the module docstring
+        and :meth:`with_tip_force`.
 
     Attributes
     ----------
     sheet : Sheet
     space : TaylorHoodSpace
     assembler : Assembler
+    tip_force : float
     """
 
     sheet: Sheet
     space: TaylorHoodSpace
     assembler: Assembler
+    tip_force: float
     _constants: dict = field(repr=False)  # constant summed blocks (tangent, mass), lazily
 
     def __init__(self, sheet: Sheet, mesh: SheetMesh, quadrature_order: int = 2, *,
-                 space: TaylorHoodSpace | None = None, assembler: Assembler | None = None):
+                 space: TaylorHoodSpace | None = None, assembler: Assembler | None = None,
+                 tip_force: float = 0.0):
         if space is None:
             space = TaylorHoodSpace.build(mesh, quadrature_order)
         elif space.mesh is not mesh or space.quadrature_order != quadrature_order:
@@ -90,6 +110,7 @@ class SheetProblem:
         object.__setattr__(self, "sheet", sheet)
         object.__setattr__(self, "space", space)
         object.__setattr__(self, "assembler", assembler)
+        object.__setattr__(self, "tip_force", float(tip_force))
         object.__setattr__(self, "_constants", {})
 
     def with_length(self, length: float) -> SheetProblem:
@@ -108,7 +129,37 @@ class SheetProblem:
         """
         space = self.space.stretched(length)
         return SheetProblem(self.sheet.replace(length=space.length), self.space.mesh,
-                            self.space.quadrature_order, space=space, assembler=self.assembler)
+                            self.space.quadrature_order, space=space, assembler=self.assembler,
+                            tip_force=self.tip_force)
+
+    def with_tip_force(self, force: float) -> SheetProblem:
+        """The same problem with the tip force ``force`` (total, positive
+        upward, units of ``rho g a^3``) instead of :attr:`tip_force`.
+
+        The copy shares the space, the assembler and the constant blocks
+        (tangent, mass, :attr:`tip_load`: none depends on the load), so that
+        making it costs nothing; the tangent is the same, the residual gains
+        ``-force f`` and the energy ``-force w_tip``.
+
+        Examples
+        --------
+        >>> from skfem_sheet.mesh import sheet_mesh
+        >>> p = SheetProblem(Sheet(length=0.5), sheet_mesh(Sheet(length=0.5), 0.25, half=True))
+        >>> q = p.with_tip_force(-0.01)
+        >>> w = np.zeros(p.ndof)
+        >>> r0, r1 = p.residual(w, 1.0)[0], q.residual(w, 1.0)[0]
+        >>> round(float(np.sum((r1 - r0)[2:p.nu_dof:3])), 12)   # the half model: F/2
+        0.005
+        """
+        force = float(force)
+        if not np.isfinite(force):
+            raise ParameterError(f"tip_force must be finite, got {force!r}")
+        if force != 0.0:
+            _ = self.tip_load  # a sheet without a tip face is refused here
+        new = SheetProblem(self.sheet, self.space.mesh, self.space.quadrature_order,
+                           space=self.space, assembler=self.assembler, tip_force=force)
+        object.__setattr__(new, "_constants", self._constants)  # load-independent: shared
+        return new
 
     # -- the space's layout, by name ----------------------------------------
     sheet_mesh = _from_space("mesh")
@@ -136,6 +187,55 @@ class SheetProblem:
     gravity_load = _from_space("load_z")
     gravity_load.__doc__ = "d/dg of the residual: the weight vector (``space.load_z``)."
     volume0 = _from_space("volume")
+
+    @property
+    def tip_load(self) -> np.ndarray:
+        """The tip face's traction at unit total force on the displacement
+        dofs, ``f_(a,z) = int_face phi_a dA / A`` (``A`` the whole sheet's
+        face area; a half model holds half of it): ``-d residual / d F``.
+        Computed on first use on the mesh as built, where the face is the
+        boundary facets at the largest x; a stretch in x or the map of the
+        tip width scales the face uniformly, so ``f`` is theirs too.
+
+        Raises
+        ------
+        ParameterError
+            If the sheet has no tip face (a pointed tip, ``tip_width = 0``,
+            or a planform whose bites take the whole cut ``x = L``).
+        """
+        if "tip_load" not in self._constants:
+            mesh = self.basis_u.mesh
+            x = mesh.p[0]
+            tip = float(x.max())
+            tol = 1e-9 * max(1.0, tip)
+            on = np.all(np.abs(x[mesh.facets] - tip) <= tol, axis=0)
+            facets = np.intersect1d(np.flatnonzero(on), mesh.boundary_facets())
+            area = 0.0
+            if len(facets):
+                fb = FacetBasis(mesh, ElementTetP2(), facets=facets, intorder=4)
+                phi = asm(_face_integral, fb)
+                # the basis functions of nodes off the face vanish on it: their
+                # round-off (1e-17) left out
+                phi[np.abs(self.basis_u.doflocs[0] - tip) > tol] = 0.0
+                area = float(phi.sum())
+            if not area > 1e-12 * self.sheet.thickness:
+                raise ParameterError(
+                    "tip_force needs a tip face x = L to act on: this sheet has none (tip_width "
+                    f"{self.sheet.tip_width:g}; a pointed tip or bites that take the whole cut)")
+            full = 2.0 * area if self.sheet_mesh.half else area
+            f = np.zeros(self.ndof)
+            f[2:self.nu_dof:3] = phi / full
+            f.setflags(write=False)
+            self._constants["tip_load"] = f
+        return self._constants["tip_load"]
+
+    def tip_displacement(self, w) -> float:
+        """``w_tip``: the mean vertical displacement of the tip face (units of
+        a, upward), the tip force's work-conjugate (the energy holds ``-F
+        w_tip``); a half model's face has the mean of the whole one."""
+        f = self.tip_load
+        scale = 2.0 if self.sheet_mesh.half else 1.0
+        return float(scale * (f[:self.nu_dof] @ np.asarray(w)[:self.nu_dof]))
 
     @property
     def mu(self) -> float:
@@ -187,7 +287,8 @@ class SheetProblem:
         return element_residuals(F, p, self.mu, s.dphi[sel], s.phi1[sel], s.dx[sel], R)
 
     def residual(self, w, g):
-        """Full residual vector ``dPi/dw`` at gravity factor ``g``.
+        """Full residual vector ``dPi/dw`` at gravity factor ``g`` (and the
+        tip force :attr:`tip_force`, if any).
 
         Returns ``(r, Jmin)`` where ``Jmin`` is the smallest ``det F`` over
         quadrature points (``<= 0`` means an inverted element; then ``r`` is
@@ -202,6 +303,8 @@ class SheetProblem:
                 return np.full(self.ndof, np.nan), Jmin
             r = asm_.vector(R)
         r += g * self.gravity_load
+        if self.tip_force:
+            r -= self.tip_force * self.tip_load
         return r, Jmin
 
     def _element_blocks(self, w, sel, Kb, Kpu, w_ref=None):
@@ -296,12 +399,16 @@ class SheetProblem:
 
     def energy(self, w, g):
         """Total potential energy Pi of the whole sheet (the constraint term
-        vanishes at equilibrium; a half model counts twice)."""
+        vanishes at equilibrium; a half model counts twice), with the tip
+        force's potential ``-F w_tip`` if it has one."""
         F, p = self._fields(w)
         dens = strain_energy_density(F, p, self.mu)
         U, _ = self.split(w)
         e = float(np.sum(self.dx * dens) + g * U[:, 2] @ (self.gravity_load[2:self.nu_dof:3]))
-        return 2.0 * e if self.sheet_mesh.half else e
+        e = 2.0 * e if self.sheet_mesh.half else e
+        if self.tip_force:
+            e -= self.tip_force * self.tip_displacement(w)
+        return e
 
     def energy_density(self, w):
         """psi/mu = (I_C - 3)/2, averaged over each element (paper Fig. 3)."""

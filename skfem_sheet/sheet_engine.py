@@ -25,15 +25,20 @@ protocol: a state ``u``, parameters ``p``, ``residual``, ``jacobian``,
   product: the mean square of the displacements plus the square of the tip's
   vertical displacement (pressures left out).
 
-Two kinds of parameters: :class:`SheetLoadProblem` (here) has the loads
+Three kinds of parameters: :class:`SheetLoadProblem` (here) has the loads
 ``p = (curvature, gravity)`` on one mesh (the load paths of
-:mod:`skfem_sheet.continuation`); :class:`skfem_sheet.sheet_shape.SheetShapeProblem`
+:mod:`skfem_sheet.continuation`); :class:`SheetForceProblem` (here) has the
+tip force ``p = (tip_force,)`` at fixed loads on one mesh (the
+force-deflection curves of :mod:`skfem_sheet.switch`);
+:class:`skfem_sheet.sheet_shape.SheetShapeProblem`
 has the shape ``(L, b, a/R)`` at full load, on a mesh mapped to it and
 remeshed (bistability, fold curves and paths through parameter space).
 Every factorisation, assembly and linear solve is counted in the adapter's
 :class:`~skfem_sheet.newton.Stats`.
 """
 from __future__ import annotations
+
+from collections import OrderedDict
 
 import numpy as np
 
@@ -42,8 +47,10 @@ from .analyses.stability import stability
 from .engine.protocol import EngineFailure, Problem
 from .linalg import LinearSolverError
 from .newton import NewtonOptions, Stats, timed
+from .params import ParameterError
 
-__all__ = ["Factorization", "LoadPhase", "SheetEngineProblem", "SheetLoadProblem", "SolverSlot"]
+__all__ = ["Factorization", "LoadPhase", "SheetEngineProblem", "SheetForceProblem",
+           "SheetLoadProblem", "SolverSlot"]
 
 
 class SolverSlot:
@@ -328,6 +335,117 @@ class SheetLoadProblem(SheetEngineProblem):
         if i == 1:
             return self._weight
         return self.clamp_rate_residual(u, p)
+
+
+class SheetForceProblem(SheetEngineProblem):
+    """One discrete sheet at fixed loads as an engine problem in its tip
+    force, ``p = (F / force_unit,)``.
+
+    The tip force ``F`` (total, positive upward, units of ``rho g a^3``) is
+    a dead load spread uniformly over the tip face ``x = L``
+    (:meth:`~skfem_sheet.problem.SheetProblem.with_tip_force`): the residual
+    is ``R(u) - F f`` with the face's traction vector ``f`` at unit force, so
+    that ``dR/dF = -f`` exactly and the tangent does not depend on ``F``.
+    States, norms and the arclength inner product are those of every sheet
+    adapter (:class:`SheetEngineProblem`).
+
+    Parameters
+    ----------
+    problem : SheetProblem
+        The sheet on its mesh (its own tip force, if any, is replaced by ``p``).
+    solver : linear-solver back-end
+    curvature : float
+        The clamp curvature a/R (fixed).
+    gravity : float
+        The gravity factor (fixed; 1: the sheet's own weight).
+    stats : ~skfem_sheet.newton.Stats, optional
+    force_unit : float
+        The unit of the parameter (``rho g a^3``; default 1): ``p[0] = F /
+        force_unit`` (an attribute: it may be changed between continuations).  The arclength norm weighs the parameter against the
+        state's displacements (in a) by it: a unit of the order of the
+        forces that move the sheet by a fraction of a spreads a curve's
+        points evenly between its stiff and its soft parts.
+    tip_norm : bool
+        The arclength inner product on the vertical displacement of the
+        tip's centre alone (default False: with the mean square of all
+        displacements, :meth:`SheetEngineProblem.dual`): arclength steps
+        along the plotted curve of ``p`` against the tip, and a step
+        control by the bending (the tangent's turn,
+        :func:`~skfem_sheet.engine.arclength`'s ``turn``) that follows that
+        curve's bends, not the turning of the sheet's mode shapes.
+
+    Examples
+    --------
+    >>> from skfem_sheet import Sheet
+    >>> from skfem_sheet.engine import newton
+    >>> from skfem_sheet.linalg import make_linear_solver
+    >>> from skfem_sheet.solve import build_problem
+    >>> prob = build_problem(Sheet(length=0.5), 0.2, half=True)
+    >>> P = SheetForceProblem(prob, make_linear_solver(), curvature=0.0)
+    >>> a = newton(P, np.zeros(P.n), [0.0]).u
+    >>> b = newton(P, a, [-0.002]).u          # a push down adds to the sag
+    >>> bool(P.deflection(b, [-0.002]) > P.deflection(a, [0.0]))
+    True
+    >>> round(float(P.dresidual(a, [0.0], 0).sum()), 12)   # -f: half of the unit force
+    -0.5
+    """
+
+    parameter_names = ("tip_force",)
+
+    def __init__(self, problem, solver, curvature: float, gravity: float = 1.0,
+                 stats: Stats | None = None, force_unit: float = 1.0, tip_norm: bool = False):
+        self.problem = problem.with_tip_force(0.0) if problem.tip_force else problem
+        self.curvature, self.g = float(curvature), float(gravity)
+        self.force_unit = float(force_unit)
+        self.tip_norm = bool(tip_norm)
+        if not (self.force_unit > 0 and np.isfinite(self.force_unit)):
+            raise ParameterError(f"force_unit must be positive and finite, got {force_unit!r}")
+        super().__init__(self.problem, [solver], stats)
+        self._f = np.asarray(self.problem.tip_load)[self.free]  # -dR/dF (no tip face: raises)
+        self._forces = OrderedDict()  # F -> the problem with that tip force (shares everything)
+
+    def force(self, p) -> float:
+        """The tip force F at ``p`` (``rho g a^3``)."""
+        return float(p[0]) * self.force_unit
+
+    def problem_at(self, p):
+        F = self.force(p)
+        if F == 0.0:
+            return self.problem
+        prob = self._forces.get(F)
+        if prob is None:
+            prob = self._forces[F] = self.problem.with_tip_force(F)
+            if len(self._forces) > 8:
+                self._forces.popitem(last=False)
+        return prob
+
+    def kappa(self, p) -> float:
+        return self.curvature
+
+    def gravity(self, p) -> float:
+        return self.g
+
+    def dresidual(self, u, p, i):
+        return -self.force_unit * self._f
+
+    def dual(self, a):
+        if not self.tip_norm:
+            return super().dual(a)
+        c = np.zeros_like(a)
+        c[self.tip_index] = a[self.tip_index]
+        return c
+
+    def tip_displacement(self, u, p) -> float:
+        """``w_tip`` of ``u``: the tip face's mean vertical displacement (up)."""
+        return self.problem.tip_displacement(self.full(u, p))
+
+    def energy(self, u, p, load_potential: bool = True) -> float:
+        """The total potential energy at ``(u, p)`` (``rho g a^4``); without
+        the tip force's potential ``-F w_tip`` if ``load_potential`` is False
+        (the sheet's own energy: elastic and gravitational)."""
+        w = self.full(u, p)
+        e = self.problem.energy(w, self.g)
+        return e - self.force(p) * self.problem.tip_displacement(w) if load_potential else e
 
 
 class LoadPhase(Problem):

@@ -436,7 +436,9 @@ SUITES = ("accuracy", "speed", "robustness", "acceptance")
 
 
 def test_the_suite_is_at_most_twenty_scripts_none_editing_the_path():
-    assert len(SCRIPTS) <= 20, SCRIPTS
+    # 21 with issue 58's switching.py (the switching analysis's acceptance: its own
+    # parts, not an extension of bistability.py's fold lengths)
+    assert len(SCRIPTS) <= 21, SCRIPTS
     for name in SCRIPTS:
         text = open(os.path.join(BENCH, name)).read()
         assert "sys.path" not in text, f"{name} edits sys.path (import harness instead)"

@@ -21,13 +21,22 @@ pd = pytest.importorskip("pandas")
 import skfem_sheet.reduced as reduced  # noqa: E402
 from skfem_sheet import figures  # noqa: E402
 from skfem_sheet.cli import main  # noqa: E402
-from skfem_sheet.figures import batch, figure3, figureS1, figureS3, figureS4, work  # noqa: E402
+from skfem_sheet.figures import (  # noqa: E402
+    batch,
+    figure3,
+    figure_switching,
+    figureS1,
+    figureS3,
+    figureS4,
+    work,
+)
 from skfem_sheet.params import ParameterError  # noqa: E402
 from skfem_sheet.reduced import maps  # noqa: E402
 from skfem_sheet.studies import foldmap  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-COST = {"map": 10, "curve": 12, "fig3": 20, "figS1": 7, "figS3": 5, "figS4": 5}
+COST = {"map": 10, "curve": 12, "fig3": 20, "figS1": 7, "figS3": 5, "figS4": 5,
+        "switching": 4}
 
 
 @pytest.fixture(autouse=True)
@@ -117,6 +126,17 @@ def _sections(sheet, hmax, n_t):
             "wall_time_s": 0.2}
 
 
+def _switching(sheet, **kw):
+    """The switching figure's inset: a toy S (the synthetic map has no bistable
+    window, so no other length is analysed)."""
+    csv = ("force,tip_displacement,deflection,energy,stiffness,negative_eigenvalues,kind\n"
+           "0.0,-0.04,0.05,0.0,0.06,0,start\n-0.0015,-0.08,0.08,0.0,0.0,0,fold\n"
+           "0.0,-0.11,0.11,0.0,-0.06,1,saddle\n0.0027,-0.29,0.3,0.0,0.0,0,fold\n"
+           "0.0,-0.57,0.57,0.0,0.02,0,end\n")
+    return SimpleNamespace(curve=SimpleNamespace(to_csv=lambda: csv, wall_time_s=0.1,
+                                                 factorizations=COST["switching"]))
+
+
 class _Branch:
     def __init__(self, lengths, direction):
         L = np.sort(np.asarray(lengths, float))
@@ -129,7 +149,8 @@ class _Branch:
 @pytest.fixture
 def stand_ins(monkeypatch):
     """Every computation under the caches replaced; returns the calls of each kind."""
-    calls = {k: [] for k in ("map", "curve", "fig3", "figS1", "figS3", "figS4", "ribbon")}
+    calls = {k: [] for k in ("map", "curve", "fig3", "figS1", "figS3", "figS4", "ribbon",
+                             "switching")}
 
     def record(kind, fn):
         def wrapped(*args, **kw):
@@ -145,6 +166,7 @@ def stand_ins(monkeypatch):
     monkeypatch.setattr(figureS1, "_solve_row", record("figS1", _convergence_row))
     monkeypatch.setattr(figureS3, "_grid_data", record("figS3", _grid))
     monkeypatch.setattr(figureS4, "_sections_data", record("figS4", _sections))
+    monkeypatch.setattr(figure_switching, "switching", record("switching", _switching))
     monkeypatch.setattr(reduced, "ribbon_continuation", record(
         "ribbon", lambda template, lengths, direction="increasing", **kw:
         _Branch(lengths, direction)))
@@ -303,8 +325,10 @@ def test_the_figures_with_their_own_solves_are_drawn_beside_the_others(stand_ins
                                                                        monkeypatch):
     # where the others run on two workers, fig3, figS1, figS3 and figS4 go to one
     # side process; the summary keeps the order of the figures drawn in turn
+    # (the switching figure's analyses are drawn in turn, after the fold map's figures)
     assert batch.plan(list(figures.FIGURES), workers=2) == (
-        ["fig2", "fig4", "fig5", "fig7", "fig6"], ["fig3", "figS1", "figS3", "figS4"])
+        ["fig2", "fig4", "fig5", "fig7", "fig6", "switching"],
+        ["fig3", "figS1", "figS3", "figS4"])
     assert batch.plan(list(figures.FIGURES), workers=1)[1] == []
     assert batch.plan(["fig3", "figS1"], workers=2) == (["fig3", "figS1"], [])
     # the orchestration, with the side process run in this one (the stand-ins are

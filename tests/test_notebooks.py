@@ -68,3 +68,12 @@ def test_calibration(tmp_path):
     out = _outputs(_run("calibration.ipynb", tmp_path))
     assert "E/(rho g a) = " in out and "refused: J^T J is singular" in out
     assert "window" in out
+
+
+# A minute on the loaded machine (two switching analyses on hmax 0.2, a force ramp): like
+# the bistability notebook, left to the documentation build in the default suite.
+@pytest.mark.slow
+def test_switching(tmp_path):
+    out = _outputs(_run("switching.ipynb", tmp_path))
+    assert "two states at F = 0 (bistable)" in out and "work identity" in out
+    assert "microjoules" in out and "one state" in out

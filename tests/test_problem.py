@@ -100,7 +100,8 @@ def test_problem_fields_are_declared_and_frozen():
 
     p = small_problem(True)
     assert [f.name for f in dataclasses.fields(p)] == ["sheet", "space", "assembler",
-                                                        "_constants"]
+                                                        "tip_force", "_constants"]
+    assert p.tip_force == 0.0  # the dead tip load (issue 58), none by default
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.sheet = p.sheet.replace(length=2.0)
     # the layout is the space's, by name

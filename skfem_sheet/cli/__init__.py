@@ -13,6 +13,7 @@ Commands:
 - ``fold-map``: pop-up and standout lengths over a grid of (b/a, a/R)
 - ``figure``: one of the paper's figures
 - ``calibrate``: fit the modulus (or other parameters) to measured tip deflections
+- ``switch``: switching forces and energy barriers of a bistable sheet
 
 All argument parsing of the package lives here, one module per command; each
 exposes ``register(subparsers)``, which adds the command's parser and sets
@@ -38,14 +39,26 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 #: The command modules, in the order of ``--help``.  They are imported when the
 #: parser is built (``cli.COMMANDS`` too), so that ``--version`` needs no numerics.
 COMMAND_NAMES = ("solve", "demo", "rom", "sweep", "bistability", "fold_curve", "fold_map",
-                 "figure", "calibrate")
+                 "figure", "calibrate", "switch")
 
 
 def _commands():
-    from . import bistability, calibrate, demo, figure, fold_curve, fold_map, rom, solve, sweep
+    from . import (
+        bistability,
+        calibrate,
+        demo,
+        figure,
+        fold_curve,
+        fold_map,
+        rom,
+        solve,
+        sweep,
+        switch,
+    )
 
     modules = dict(solve=solve, demo=demo, rom=rom, sweep=sweep, bistability=bistability,
-                   fold_curve=fold_curve, fold_map=fold_map, figure=figure, calibrate=calibrate)
+                   fold_curve=fold_curve, fold_map=fold_map, figure=figure, calibrate=calibrate,
+                   switch=switch)
     return tuple(modules[name] for name in COMMAND_NAMES)
 
 

@@ -423,7 +423,8 @@ def sweep(problem, u0, p0, param, values, *, tol: Tolerances = DEFAULT_TOLERANCE
 def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float = 1e-6,
               ds_max: float = 0.2, direction: int = 1, tol: Tolerances = DEFAULT_TOLERANCES,
               max_points: int = 1000, locate: bool = True, check_inertia: bool = False,
-              keep_states: bool = True, progress=None, on_step=None, start=None) -> Branch:
+              keep_states: bool = True, progress=None, on_step=None, start=None,
+              turn=None) -> Branch:
     """Pseudo-arclength continuation in one parameter, through folds.
 
     Parameters
@@ -450,6 +451,22 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     start : (u, factorization), optional
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
+    turn : float, optional
+        Step control by the curve's bending (radians): the angle between the
+        unit tangents of consecutive points (in the norm of ``ds``) is kept
+        near ``turn``: a step that turned by more than twice as much is
+        rejected and halved (down to ``ds_min``), as is a step whose new
+        tangent points back along its chord (the curve turned by more than a
+        right angle within it: a sharp fold crossed, where the tangent,
+        oriented along the last one, would send the continuation back the
+        way it came) or across which the inertia changes while the
+        tangent's parameter component keeps its sign (the same, where the
+        chord does not show it; or a branch point, which the halved steps
+        expose down to ``ds_min``), and the next step is scaled
+        by ``turn / angle`` (between 1/2 and the growth after an easy
+        correction, 1.5), so that the points fall densely where the curve
+        bends and sparsely where it is straight.  Default: none (the steps
+        grow after easy corrections up to ``ds_max``).
 
     Returns
     -------
@@ -464,6 +481,15 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     ...               direction=-1)
     >>> b.completed, [round(float(f.value), 10) for f in b.folds]
     (True, [-0.3849001795, 0.3849001795])
+
+    With the step control by the bending, the points crowd at the folds:
+
+    >>> b = arclength(P, np.array([-1.5]), np.array([1.875]), 0, (-2.0, 2.0), ds=0.05,
+    ...               ds_max=1.0, direction=-1, turn=0.1)
+    >>> s = np.array([pt.s for pt in b.points]); u = np.array([pt.u[0] for pt in b.points])
+    >>> step = np.diff(s)
+    >>> bool(step[np.argmin(np.abs(u[1:] - 0.577))] < 0.5 * step.max())  # near a fold
+    True
     """
     counter = problem if isinstance(problem, Counting) else Counting(problem)
     start_stats = counter.stats()
@@ -477,6 +503,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
     ds = check_range("ds", ds, 0, None, lo_open=True)
     ds_min = check_range("ds_min", ds_min, 0, ds, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, None)
+    if turn is not None:
+        turn = check_range("turn", turn, 0, np.pi / 2, lo_open=True)
 
     def finish(points, folds, completed=False, reason=""):
         return Branch(tuple(points), i, tuple(folds), completed, reason, (),
@@ -509,6 +537,25 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
             t_new = tangent_at(counter, res, t)
         except EngineFailure as err:
             return finish(points, folds, reason=f"tangent: {err}")
+        angle = None
+        if turn is not None:
+            cos = counter.inner(t[0], t_new[0]) + t[1] * t_new[1]
+            angle = float(np.arccos(np.clip(cos, -1.0, 1.0)))
+            # the new tangent is oriented along the last one (within a right
+            # angle of it): where the curve turned by more within the step (a
+            # sharp fold crossed), it points back along the chord, and the
+            # continuation would run back the way it came
+            back = (counter.inner(res.u - u, t_new[0])
+                    + (res.p[i] - p[i]) * t_new[1]) < 0
+            # ... or it did and the chord does not show it, but the inertia
+            # does: one eigenvalue crossed zero while the tangent kept its
+            # parameter component's sign
+            k_last, k_step = points[-1].negative_eigenvalues, res.factorization.inertia()
+            hidden = (k_last is not None and k_step is not None and k_step != k_last
+                      and np.sign(t_new[1]) == np.sign(t[1]))
+            if (back or hidden or angle > 2.0 * turn) and 0.5 * h >= ds_min:
+                h *= 0.5  # the step turned too far: the same step, halved
+                continue
         k_new = res.factorization.inertia()
         prev_point = points[-1]
         if not keep_states:
@@ -527,5 +574,8 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
             progress(float(p[i]))
         if not lo <= p[i] <= hi:
             return finish(points, folds, completed=True)
-        h = min(ds_max, h * (1.5 if res.iterations <= 3 else 1.0))
+        grow = 1.5 if res.iterations <= 3 else 1.0
+        if angle is not None:
+            grow = min(grow, max(0.5, turn / angle if angle > 0 else np.inf))
+        h = max(ds_min, min(ds_max, h * grow))
     return finish(points, folds, reason="max_points")

@@ -23,6 +23,11 @@ figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one F
        rectangle L/a 2, a/R 0.5, h/a 0.03175
 =====  ==================================================================  =====================
 
+One figure more, not in the paper (issue 58): ``switching``, the switching forces and energy
+barriers of the rectangle across its bistable window at a/R 2.5 and 5, with the
+force-deflection curve of L/a 1.3, a/R 2.5 as an inset (the fold map's rows and the switching
+analyses of :mod:`skfem_sheet.switch`).
+
 The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
 solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and
 ``figS4-<quality>/*.npz``; their mid-surface fields are
@@ -97,6 +102,7 @@ from .figure4 import draw_fig4, fig4, fig4_points
 from .figure5 import draw_fig5, fig5, fig5_points, fig5_ribbon
 from .figure6 import draw_fig6, fig6, fig6_points, fig6_ribbon
 from .figure7 import bistable_region, draw_fig7, fig7, fig7_points
+from .figure_switching import draw_switching, fig_switching, switching_curve, switching_table
 from .figureS1 import draw_figS1, figS1, figS1_data, seed_from_benchmarks
 from .figureS3 import draw_figS3, figS3, figS3_data
 from .figureS4 import draw_figS4, figS4, figS4_data
@@ -113,4 +119,5 @@ __all__ = ["FIGURES", "QUALITIES", "DEFAULT_DATA_DIR", "QUICK_GRID", "PAPER_GRID
            "draw_fig2", "draw_fig3", "draw_fig4", "draw_fig5", "draw_fig6", "draw_fig7",
            "fig3_sheets", "fig3_data", "fig5_ribbon", "fig6_ribbon", "row_branches",
            "bistable_region", "COLUMN_WIDTH", "FULL_WIDTH", "DPI", "make_all", "run_order",
-           "DataStep", "FigureRun", "summary_text", "summary_json"]
+           "DataStep", "FigureRun", "summary_text", "summary_json",
+           "fig_switching", "draw_switching", "switching_table", "switching_curve"]

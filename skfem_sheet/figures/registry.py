@@ -3,7 +3,7 @@
 Examples
 --------
 >>> sorted(FIGURES)
-['fig2', 'fig3', 'fig4', 'fig5', 'fig6', 'fig7', 'figS1', 'figS3', 'figS4']
+['fig2', 'fig3', 'fig4', 'fig5', 'fig6', 'fig7', 'figS1', 'figS3', 'figS4', 'switching']
 """
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from .figure4 import fig4
 from .figure5 import fig5
 from .figure6 import fig6
 from .figure7 import fig7
+from .figure_switching import fig_switching
 from .figureS1 import figS1
 from .figureS3 import figS3
 from .figureS4 import figS4
@@ -27,7 +28,8 @@ __all__ = ["FIGURES", "make_figure"]
 #: (``log``: a list for the data steps, :mod:`skfem_sheet.figures.work`).
 #: The command line (``skfem_sheet.cli``) offers exactly these names (and ``all``).
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-           "fig7": fig7, "figS1": figS1, "figS3": figS3, "figS4": figS4}
+           "fig7": fig7, "figS1": figS1, "figS3": figS3, "figS4": figS4,
+           "switching": fig_switching}
 
 
 def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DATA_DIR,
@@ -60,7 +62,7 @@ def make_figure(name: str, quality: str = "quick", out=None, data_dir=DEFAULT_DA
     >>> make_figure("fig9")
     Traceback (most recent call last):
     ...
-    skfem_sheet.params.ParameterError: name must be one of fig2, ..., figS4, got 'fig9'
+    skfem_sheet.params.ParameterError: name must be one of fig2, ..., switching, got 'fig9'
     """
     if name not in FIGURES:
         raise ParameterError(f"name must be one of {', '.join(FIGURES)}, got {name!r}")
