@@ -435,8 +435,10 @@ SCRIPTS = sorted(f for f in os.listdir(BENCH) if f.endswith(".py"))
 SUITES = ("accuracy", "speed", "robustness", "acceptance")
 
 
-def test_the_suite_is_at_most_twenty_scripts_none_editing_the_path():
-    assert len(SCRIPTS) <= 20, SCRIPTS
+def test_the_suite_is_at_most_twenty_one_scripts_none_editing_the_path():
+    # 21 since speed_profile.py (issue 59: where the time of a fold curve, a row,
+    # a solve goes, by stage and operation), which no other script's part fits
+    assert len(SCRIPTS) <= 21, SCRIPTS
     for name in SCRIPTS:
         text = open(os.path.join(BENCH, name)).read()
         assert "sys.path" not in text, f"{name} edits sys.path (import harness instead)"
