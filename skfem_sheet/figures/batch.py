@@ -15,6 +15,14 @@ of fig6 are on different length grids and are not shared.  Those four are
 drawn in one process of their own beside the others where the others
 compute on two workers or more (:data:`ALONGSIDE`, :func:`plan`).
 
+On a Dask cluster (``scheduler``, ``figure all --scheduler ADDRESS``) the
+fold-map rows and the fold curves are the cluster's tasks (through the
+studies' runner, as ``sweep`` and ``fold-map`` run theirs: the records come
+back here and are journalled in the data folder, so the run resumes from it
+like a local one, with or without the cluster); what writes files of its own
+(fig3, figS1, figS3, figS4 and their caches) and the ribbon model stay on
+this machine, those four in the process beside (:func:`plan`).
+
 One progress bar (stderr) counts the figures; the bar of the step under way
 (the fold map, the fold curves, a figure's solves) shows below it while it
 runs.  At the end, :func:`make_all` writes the summary
@@ -33,6 +41,8 @@ Examples
 (['fig2', 'fig7'], ['fig3', 'figS1'])
 >>> plan(["fig2", "fig3", "fig7", "figS1"], workers=1)
 (['fig2', 'fig3', 'fig7', 'figS1'], [])
+>>> plan(["fig2", "fig3", "fig7", "figS1"], workers=Workers(scheduler="tcp://host:8786", local=1))
+(['fig2', 'fig7'], ['fig3', 'figS1'])
 """
 from __future__ import annotations
 
@@ -48,7 +58,7 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import beside, fold_map_table, foldmap
+from .data import Workers, beside, dask_client, fold_map_table, foldmap
 from .figure2 import fig2_points
 from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
@@ -93,13 +103,16 @@ def run_order(names) -> list:
 def plan(names, workers=None) -> tuple:
     """``(here, beside)``: the figures of ``names`` drawn one after the other
     in this process (in :func:`run_order`) and those of :data:`ALONGSIDE`
-    drawn in a process beside it -- none unless ``workers`` (default: one per
-    CPU) is at least 2 and a figure computed on the workers is drawn here.
-    See the module's examples."""
+    drawn in a process beside it -- none unless a figure computed on the
+    workers is drawn here and the workers are a Dask cluster's
+    (:class:`~skfem_sheet.studies.runner.Workers` with a scheduler: this
+    machine's cores are free while they compute) or at least 2 (default: one
+    per CPU).  See the module's examples."""
     order = run_order(names)
+    cluster = isinstance(workers, Workers) and workers.scheduler is not None
     n = (os.cpu_count() or 1) if workers is None else int(workers)
     side = [x for x in order if x in ALONGSIDE]
-    if n < 2 or not any(x in _ON_WORKERS for x in order):
+    if (n < 2 and not cluster) or not any(x in _ON_WORKERS for x in order):
         return order, []
     return [x for x in order if x not in side], side
 
@@ -167,7 +180,7 @@ def _draw(name, quality, out_dir, data_dir, progress, workers) -> FigureRun:
 
 
 def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
-             progress: bool = True, workers=None, names=None) -> tuple:
+             progress: bool = True, workers=None, names=None, scheduler=None) -> tuple:
     """Draw every figure (or ``names``) into ``out_dir``, with the summary beside them.
 
     Parameters
@@ -181,10 +194,15 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     progress : bool
         One progress bar on stderr (and the bar of the step under way).
     workers : int, optional
-        Processes for the fold map and the fold curves (default: one per CPU).
+        Processes for the fold map and the fold curves (default: one per CPU);
+        with ``scheduler``, the processes of this machine for the work that
+        stays here (fig6's ribbon model; default: one per CPU).
     names : list of str, optional
         Keys of :data:`~skfem_sheet.figures.FIGURES` (default: all), drawn in
         :func:`run_order`.
+    scheduler : str or distributed.Client, optional
+        A Dask cluster (its address, ``tcp://host:8786``, or a client): the
+        fold-map rows and the fold curves run there (see the module).
 
     Returns
     -------
@@ -213,13 +231,33 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     import matplotlib  # deferred: import cost; the file backend before pyplot loads
 
     matplotlib.use("Agg", force=False)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    client, own = dask_client(scheduler) if scheduler is not None else (None, False)
+    try:
+        return _make_all(quality, out_dir, data_dir, progress, workers, names, client)
+    finally:
+        if own:
+            client.close()
+
+
+def _make_all(quality, out_dir, data_dir, progress, workers, names, client) -> tuple:
     about = {"quality": quality, "data_dir": os.fspath(data_dir), "out_dir": out_dir,
              "workers": workers, "version": version.__version__,
              "started_at": time.strftime("%Y-%m-%d %H:%M:%S %z")}
+    where = f"workers: {workers or 'one per CPU'}"
+    if client is not None:
+        about["scheduler"] = str(client.scheduler.address)
+        slots = sum(client.nthreads().values())
+        about["cluster_threads"] = slots
+        where = (f"Dask cluster {about['scheduler']} ({slots} threads); here: "
+                 f"{workers or 'one per CPU'}")
+        workers = Workers(scheduler=client, local=workers)
     here, side = plan(names, workers)
     about["beside"] = side
     title = (f"figure all, {quality} quality: data in {os.fspath(data_dir)}, figures in "
-             f"{out_dir} (workers: {workers or 'one per CPU'}"
+             f"{out_dir} ({where}"
              + (f"; {', '.join(side)} in a process beside them" if side else "") + ")")
     shared, done, t0 = None, {}, time.perf_counter()
     bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,
