@@ -39,9 +39,10 @@ fold curve took.
   solver.
 - ``paper``: no computation; the recorded ``figure all`` summary (``--record``,
   default the newest of ``benchmarks/results/speed/figure_all_paper_*.json``)
-  per figure and per data step, and from a ``fig7`` JSON (``--curves``) the
-  model of the paper's time on N workers (every task's cost and the longest
-  single one, the critical path).
+  per figure and per data step, and the model of the paper's time on N
+  workers from its task costs (per batch the sum and the longest single
+  task; the critical path), the fold curves optionally from a ``fig7`` JSON
+  (``--curves``).
 
 Timings depend on the machine's load: the load average is printed and
 recorded; compare parts run in one process or side by side, and counts
@@ -133,7 +134,7 @@ class Recorder:
         return self.levels.get(int(n), f"n {int(n)}")
 
     def install(self):
-        from skfem_sheet import discretisation, linalg, mesh, problem
+        from skfem_sheet import assembly, discretisation, linalg, mesh, problem
         from skfem_sheet.analyses import transfer
 
         def label(sheet_mesh):
@@ -168,8 +169,11 @@ class Recorder:
                                                lambda a: label(a[1]))(space.mapped))
         self._replace(space, "build", classmethod(self.op(
             "space built", lambda a: label(a[1]))(space.build.__func__)))
-        self._everywhere(mesh, "sheet_mesh", self.op(
-            "mesh", lambda a: f"hmax {a[1] if len(a) > 1 else 0.03:g}"))
+        self._replace(mesh.MeshSpec, "build", self.op(
+            "mesh", lambda a: f"hmax {a[0].hmax:g}" + (f" r{a[0].refine}" if a[0].refine
+                                                       else ""))(mesh.MeshSpec.build))
+        self._replace(assembly.Assembler, "build", classmethod(self.op(
+            "assembler built", lambda a: label(a[1].mesh))(assembly.Assembler.build.__func__)))
         self._everywhere(transfer, "transfer", self.op(
             "transfer", lambda a: f"{label(a[0].sheet_mesh)} -> {label(a[2].sheet_mesh)}"))
 
@@ -220,7 +224,7 @@ def _top(stage):
 
 
 OPS = ("factorisation", "back-substitution", "residual", "tangent", "assembly (other)",
-       "mapped space", "space built", "mesh", "transfer")
+       "mapped space", "space built", "assembler built", "mesh", "transfer")
 
 
 def stage_table(prof, wall=None):
@@ -439,11 +443,11 @@ def part_solve(args, out, lines):
                   and op in ("factorisation", "back-substitution"))
         nfact = sum(c for s, lv, op, c, t in prof["ops"] if lv == fine and op == "factorisation")
         out["solve"].append(dict(path=path, wall_s=wall, wall_time_s=res.wall_time_s,
-                                 d=res.tip_deflection, factorizations=res.factorizations,
+                                 d=res.deflection, factorizations=res.factorizations,
                                  fine_linear_s=lin, fine_factorizations=nfact, profile=prof))
         lines += [f"solve L/a {args.length:g}, b/a {args.tip_width:g}, a/R {args.curvature:g}, "
                   f"{path}, hmax {args.hmax:g}: wall_time_s {res.wall_time_s:.2f} s (call "
-                  f"{wall:.2f} s), d/a {res.tip_deflection:.6f}, {res.factorizations} "
+                  f"{wall:.2f} s), d/a {res.deflection:.6f}, {res.factorizations} "
                   f"factorisations; the fine linear solver {lin:.2f} s ({nfact} fine "
                   f"factorisations), outside it {res.wall_time_s - lin:.2f} s "
                   f"({100 * (1 - lin / res.wall_time_s):.0f}%)", ""]
@@ -455,43 +459,103 @@ def _newest(pattern):
     return files[-1] if files else None
 
 
+def _longest_s(text):
+    """The seconds of a summary's ``longest`` text, ``"b/a 1, a/R 5 (770 s)"`` -> 770."""
+    try:
+        return float(text.rsplit("(", 1)[1].split()[0])
+    except (IndexError, ValueError):
+        return 0.0
+
+
+def paper_phases(rec, curves=None):
+    """The recorded ``figure all`` run as phases: ``[(name, tasks, sum_s, longest_s,
+    where)]`` in the order run, ``where`` one of "workers" (the fold map's and the
+    fold curves' computed units: a batch the next step waits for), "here" (the
+    ribbon model, drawing: this process) and "beside" (the side process's figures,
+    one after the other, in parallel with the rest).  ``curves``: a ``fig7`` part's
+    record replacing the fold curves' phase (its curves' walls)."""
+    phases = []
+    beside = set(rec.get("beside") or ())
+    for f in rec["figures"]:
+        if f["name"] in beside:
+            phases.append((f["name"], 1, f["wall_time_s"], f["wall_time_s"], "beside"))
+            continue
+        steps = f.get("steps", [])
+        spent = 0.0
+        for st in steps:
+            spent += st["wall_time_s"]
+            if st.get("computed") and st.get("compute_s") and st["what"] in ("fold map",
+                                                                             "fold curves"):
+                n, tot, top = st["computed"], st["compute_s"], _longest_s(st.get("longest", ""))
+                if st["what"] == "fold curves" and curves is not None:
+                    walls = [c["wall_s"] for c in curves["curves"]]
+                    n, tot, top = len(walls), sum(walls), max(walls)
+                phases.append((f"{f['name']}: {st['what']}", n, tot, top, "workers"))
+            elif st["wall_time_s"] > 1.0:
+                phases.append((f"{f['name']}: {st['what']}", 1, st["wall_time_s"],
+                               st["wall_time_s"], "here"))
+        rest = f["wall_time_s"] - spent
+        if rest > 1.0:
+            phases.append((f"{f['name']}: drawing", 1, rest, rest, "here"))
+    return phases
+
+
+def model_lines(phases, workers=(1, 2, 4, 8, 16, 32, 64)):
+    """The paper's wall on N workers: each phase on the workers takes ``max(sum / N,
+    longest)`` (a greedy schedule, the costliest first, ends within ``longest`` of
+    ``sum / N``), the phases here their recorded walls, one after the other; the side
+    process runs beside them: ``max(side, sum of the phases)``.  With unlimited
+    workers every phase is its longest task: the critical path."""
+    lines = ["  phase                                   tasks   sum s  longest s    "
+             + "".join(f"N={n:<6d}" for n in workers)]
+    total = [0.0] * len(workers)
+    side = 0.0
+    crit = 0.0
+    for name, n, tot, top, where in phases:
+        if where == "beside":
+            side += tot
+            cells = "".join(f"{'(beside)':8s}" for _ in workers)
+        else:
+            t = [max(tot / k, top) if where == "workers" else tot for k in workers]
+            total = [a + b for a, b in zip(total, t)]
+            crit += top
+            cells = "".join(f"{x:<8.0f}" for x in t)
+        lines.append(f"  {name[:38]:38s} {n:6d} {tot:7.0f} {top:9.0f}    {cells}")
+    lines.append(f"  {'side process (fig3, supplement)':38s} {'':6s} {side:7.0f} {'':9s}    "
+                 + "".join(f"{side:<8.0f}" for _ in workers))
+    lines.append(f"  {'the paper: max(side, phases)':38s} {'':6s} {'':7s} {'':9s}    "
+                 + "".join(f"{max(side, t):<8.0f}" for t in total))
+    lines.append(f"  critical path (unlimited workers): {max(side, crit):.0f} s")
+    return lines
+
+
 def part_paper(args, out, lines):
     """The recorded run per figure and step, and the model of the paper on N workers."""
     path = args.record or _newest(os.path.join(OUT, "figure_all_paper_*.json"))
     with open(path) as fh:
         rec = json.load(fh)
+    curves = None
+    if args.curves:
+        with open(args.curves) as fh:
+            curves = json.load(fh)["fig7"]
     lines += [f"recorded figure all --quality paper: {os.path.relpath(path)} "
-              f"(elapsed {rec['elapsed_s']:.0f} s, workers {rec['workers']})", "",
+              f"(elapsed {rec['elapsed_s']:.0f} s, workers {rec['workers']}; beside: "
+              f"{', '.join(rec.get('beside') or []) or 'none'})", "",
               "  figure / data step                 wall s   computed  units' walls s  longest"]
-    tasks = {}
     for f in rec["figures"]:
         lines.append(f"  {f['name']:34s} {f['wall_time_s']:7.1f}")
-        for s in f.get("steps", []):
-            cs = s.get("compute_s")
-            lines.append(f"    {s['what']:32s} {s['wall_time_s']:7.1f}   {s.get('computed', 0):8d}"
-                         f"  {cs if cs is not None else float('nan'):14.1f}  {s.get('longest', '')}")
-            if cs:
-                tasks[f"{f['name']}: {s['what']}"] = (s.get("computed", 0), cs, s.get("longest", ""))
-    out["paper"] = dict(record=path, steps=tasks)
-
-
-def model_lines(costs, workers=(1, 2, 4, 8, 16, 32)):
-    """The paper's wall on N workers from task costs ``[(name, s, stage)]``: each
-    stage (a batch the next waits for) takes ``max(sum / N, longest)``; the whole
-    ``max(sum of stages, longest single task)``."""
-    by_stage = defaultdict(list)
-    for name, s, stage in costs:
-        by_stage[stage].append((s, name))
-    lines = ["  N workers   " + "  ".join(f"{n:>7d}" for n in workers)]
-    for stage, items in by_stage.items():
-        tot, top = sum(s for s, _ in items), max(items)
-        lines.append(f"  {stage[:10]:10s}  " + "  ".join(
-            f"{max(tot / n, top[0]):7.0f}" for n in workers)
-            + f"   ({len(items)} tasks, {tot:.0f} s, longest {top[1]} {top[0]:.0f} s)")
-    lines.append("  total       " + "  ".join(
-        f"{sum(max(sum(s for s, _ in it) / n, max(it)[0]) for it in by_stage.values()):7.0f}"
-        for n in workers))
-    return lines
+        for st in f.get("steps", []):
+            cs = st.get("compute_s")
+            lines.append(f"    {st['what']:32s} {st['wall_time_s']:7.1f}   "
+                         f"{st.get('computed', 0):8d}  "
+                         f"{cs if cs is not None else float('nan'):14.1f}  "
+                         f"{st.get('longest', '')}")
+    phases = paper_phases(rec, curves)
+    lines += ["", "the model of the paper's wall on N workers (s)"
+              + (f", the fold curves from {os.path.relpath(args.curves)}" if curves else "")
+              + ":"]
+    lines += model_lines(phases)
+    out["paper"] = dict(record=path, curves=args.curves, phases=phases)
 
 
 def main(argv=None):
@@ -510,6 +574,8 @@ def main(argv=None):
     ap.add_argument("--path", default="both",
                     choices=("both", "curvature-first", "gravity-first"))
     ap.add_argument("--record", default=None, help="paper: a figure_all_paper_*.json")
+    ap.add_argument("--curves", default=None,
+                    help="paper: a fig7 part's JSON, whose curves replace the recorded ones")
     ap.add_argument("--txt", default=None)
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)

@@ -19,9 +19,12 @@ On a Dask cluster (``scheduler``, ``figure all --scheduler ADDRESS``) the
 fold-map rows and the fold curves are the cluster's tasks (through the
 studies' runner, as ``sweep`` and ``fold-map`` run theirs: the records come
 back here and are journalled in the data folder, so the run resumes from it
-like a local one, with or without the cluster); what writes files of its own
-(fig3, figS1, figS3, figS4 and their caches) and the ribbon model stay on
-this machine, those four in the process beside (:func:`plan`).
+like a local one, with or without the cluster), the fold curves in the same
+batch as fig2's and fig4's rows (:data:`CURVES_WITH_ROWS`: on many workers
+the rows alone leave most of them idle while the longest rows finish); what
+writes files of its own (fig3, figS1, figS3, figS4 and their caches) and the
+ribbon model stay on this machine, those four in the process beside
+(:func:`plan`).
 
 One progress bar (stderr) counts the figures; the bar of the step under way
 (the fold map, the fold curves, a figure's solves) shows below it while it
@@ -50,6 +53,7 @@ import contextlib
 import os
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 from tqdm.auto import tqdm
 
@@ -58,13 +62,22 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import Workers, beside, dask_client, fold_map_table, foldmap
+from .data import (
+    Workers,
+    beside,
+    dask_client,
+    fold_curve_points,
+    fold_curve_table,
+    fold_map_table,
+    foldmap,
+)
 from .figure2 import fig2_points
 from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
 from .work import FigureRun, summary_json, summary_text
 
-__all__ = ["make_all", "run_order", "plan", "ALONGSIDE", "SHARED_ROWS", "SUMMARY_FILES"]
+__all__ = ["make_all", "run_order", "plan", "ALONGSIDE", "CURVES_WITH_ROWS", "SHARED_ROWS",
+           "SUMMARY_FILES"]
 
 #: The summary's files in the output folder: the text table and the JSON.
 SUMMARY_FILES = ("summary.txt", "summary.json")
@@ -86,6 +99,9 @@ _POINTS = {"fig2": fig2_points, "fig4": fig4_points}
 #: other waited (figS1's finest mesh alone 157 s of the 240 s the four took
 #: at paper quality on main 3a969d2); beside the workers they fill the cores.
 ALONGSIDE = ("fig3", "figS1", "figS3", "figS4")
+#: Figures whose fold curves (:func:`~skfem_sheet.figures.data.fold_curve_points`)
+#: are traced together with the rows of :data:`SHARED_ROWS` on a Dask cluster.
+CURVES_WITH_ROWS = ("fig7", "fig6")
 #: Figures whose data is computed on the workers (the fold map, the fold curves).
 _ON_WORKERS = ("fig2", "fig4", "fig6", "fig7")
 
@@ -138,10 +154,19 @@ def _out_folder(out_dir) -> str:
     return out_dir
 
 
+def _on_cluster(workers) -> bool:
+    return isinstance(workers, Workers) and workers.scheduler is not None
+
+
 def _shared_rows(names, quality, data_dir, progress, workers):
     """The rows of :data:`SHARED_ROWS` in one fold-map batch, as a summary
     entry (None unless all of them are in ``names``); an exception becomes
-    the entry's error (each figure then computes what it misses)."""
+    the entry's error (each figure then computes what it misses).
+
+    On a Dask cluster the fold curves of fig7 (and fig6's, two of them) are
+    traced at the same time (:data:`CURVES_WITH_ROWS`, ``-curves`` in the
+    entry's name): the two studies are independent, and on many workers the
+    rows' batch alone leaves workers idle while its longest rows finish."""
     if not all(n in names for n in SHARED_ROWS):
         return None
     points, seen = [], set()
@@ -151,15 +176,28 @@ def _shared_rows(names, quality, data_dir, progress, workers):
             if key not in seen:
                 seen.add(key)
                 points.append(p)
-    log = []
+    log, curve_log = [], []
+    curves = _on_cluster(workers) and any(n in names for n in CURVES_WITH_ROWS)
     t0 = time.perf_counter()
-    entry = "+".join(SHARED_ROWS) + "-rows"
-    try:
-        fold_map_table(points, quality, data_dir, progress, workers, log)
-    except Exception as err:  # recorded in the summary; the figures go on
-        return FigureRun(entry, "", time.perf_counter() - t0, tuple(log),
-                         f"{type(err).__name__}: {err}")
-    return FigureRun(entry, "", time.perf_counter() - t0, tuple(log))
+    entry = "+".join(SHARED_ROWS) + "-rows" + ("+curves" if curves else "")
+    errors = []
+    with contextlib.ExitStack() as stack:
+        traced = None
+        if curves:  # the client is thread-safe; the curves' table is their own
+            pool_ = stack.enter_context(ThreadPoolExecutor(1, thread_name_prefix="curves"))
+            traced = pool_.submit(fold_curve_table, fold_curve_points(quality), quality,
+                                  data_dir, False, workers, curve_log)
+        try:
+            fold_map_table(points, quality, data_dir, progress, workers, log)
+        except Exception as err:  # recorded in the summary; the figures go on
+            errors.append(f"{type(err).__name__}: {err}")
+        if traced is not None:
+            try:
+                traced.result()
+            except Exception as err:  # fig7 and fig6 then trace what they miss
+                errors.append(f"fold curves: {type(err).__name__}: {err}")
+    return FigureRun(entry, "", time.perf_counter() - t0, tuple(log + curve_log),
+                     "; ".join(errors))
 
 
 def _draw(name, quality, out_dir, data_dir, progress, workers) -> FigureRun:
