@@ -52,8 +52,8 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 from tqdm.auto import tqdm
 
@@ -180,22 +180,26 @@ def _shared_rows(names, quality, data_dir, progress, workers):
     curves = _on_cluster(workers) and any(n in names for n in CURVES_WITH_ROWS)
     t0 = time.perf_counter()
     entry = "+".join(SHARED_ROWS) + "-rows" + ("+curves" if curves else "")
-    errors = []
-    with contextlib.ExitStack() as stack:
-        traced = None
-        if curves:  # the client is thread-safe; the curves' table is their own
-            pool_ = stack.enter_context(ThreadPoolExecutor(1, thread_name_prefix="curves"))
-            traced = pool_.submit(fold_curve_table, fold_curve_points(quality), quality,
-                                  data_dir, False, workers, curve_log)
-        try:
-            fold_map_table(points, quality, data_dir, progress, workers, log)
-        except Exception as err:  # recorded in the summary; the figures go on
-            errors.append(f"{type(err).__name__}: {err}")
-        if traced is not None:
+    errors, thread = [], None
+    if curves:
+        # the client is thread-safe and the curves' table their own; a daemon
+        # thread, so that Ctrl-C here is not held up by it (the journal keeps
+        # every curve it finished)
+        def trace():
             try:
-                traced.result()
+                fold_curve_table(fold_curve_points(quality), quality, data_dir, False, workers,
+                                 curve_log)
             except Exception as err:  # fig7 and fig6 then trace what they miss
                 errors.append(f"fold curves: {type(err).__name__}: {err}")
+
+        thread = threading.Thread(target=trace, name="fold curves", daemon=True)
+        thread.start()
+    try:
+        fold_map_table(points, quality, data_dir, progress, workers, log)
+    except Exception as err:  # recorded in the summary; the figures go on
+        errors.insert(0, f"{type(err).__name__}: {err}")
+    if thread is not None:
+        thread.join()
     return FigureRun(entry, "", time.perf_counter() - t0, tuple(log + curve_log),
                      "; ".join(errors))
 

@@ -31,7 +31,8 @@ __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "bran
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
            "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step",
-           "on_workers", "beside", "Workers", "dask_client", "TRANSITION_WINDOW", "transition_window", "transition_rows"]
+           "on_workers", "beside", "Workers", "dask_client", "TRANSITION_WINDOW",
+           "transition_window", "transition_rows"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
