@@ -551,11 +551,28 @@ def part_paper(args, out, lines):
                          f"{cs if cs is not None else float('nan'):14.1f}  "
                          f"{st.get('longest', '')}")
     phases = paper_phases(rec, curves)
-    lines += ["", "the model of the paper's wall on N workers (s)"
-              + (f", the fold curves from {os.path.relpath(args.curves)}" if curves else "")
-              + ":"]
+    src = f", the fold curves from {os.path.relpath(args.curves)}" if curves else ""
+    lines += ["", f"the model of the paper's wall on N workers (s){src}; local processes "
+              "(each batch in turn, as figure all runs them there):"]
     lines += model_lines(phases)
-    out["paper"] = dict(record=path, curves=args.curves, phases=phases)
+    merged = merge_rows_and_curves(phases)
+    lines += ["", "on a Dask cluster (the fold curves in the batch of fig2's and fig4's rows):"]
+    lines += model_lines(merged)
+    out["paper"] = dict(record=path, curves=args.curves, phases=phases, cluster=merged)
+
+
+def merge_rows_and_curves(phases):
+    """``phases`` with fig7's fold curves in the batch of the shared rows (as
+    ``figure all`` runs them on a Dask cluster)."""
+    rows = [k for k, ph in enumerate(phases) if ph[0].endswith("-rows: fold map")]
+    curves = [k for k, ph in enumerate(phases) if ph[0] == "fig7: fold curves"]
+    if not rows or not curves:
+        return list(phases)
+    (i,), (j,) = rows[:1], curves[:1]
+    a, b = phases[i], phases[j]
+    both = (f"{a[0].split(':')[0]}+curves: rows and curves", a[1] + b[1], a[2] + b[2],
+            max(a[3], b[3]), "workers")
+    return [both if k == i else ph for k, ph in enumerate(phases) if k != j]
 
 
 def main(argv=None):
