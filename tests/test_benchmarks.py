@@ -435,10 +435,12 @@ SCRIPTS = sorted(f for f in os.listdir(BENCH) if f.endswith(".py"))
 SUITES = ("accuracy", "speed", "robustness", "acceptance")
 
 
-def test_the_suite_is_at_most_twenty_scripts_none_editing_the_path():
-    # 21 with issue 58's switching.py (the switching analysis's acceptance: its own
-    # parts, not an extension of bistability.py's fold lengths)
-    assert len(SCRIPTS) <= 21, SCRIPTS
+def test_the_suite_is_at_most_twenty_two_scripts_none_editing_the_path():
+    # 22: issue 58's switching.py (the switching analysis's acceptance: its own
+    # parts, not an extension of bistability.py's fold lengths) and issue 59's
+    # speed_profile.py (where the time of a fold curve, a row, a solve goes, by
+    # stage and operation), which no other script's part fits
+    assert len(SCRIPTS) <= 22, SCRIPTS
     for name in SCRIPTS:
         text = open(os.path.join(BENCH, name)).read()
         assert "sys.path" not in text, f"{name} edits sys.path (import harness instead)"

@@ -32,7 +32,7 @@ from skfem_sheet.figures import (  # noqa: E402
 )
 from skfem_sheet.params import ParameterError  # noqa: E402
 from skfem_sheet.reduced import maps  # noqa: E402
-from skfem_sheet.studies import foldmap  # noqa: E402
+from skfem_sheet.studies import foldmap, runner  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 COST = {"map": 10, "curve": 12, "fig3": 20, "figS1": 7, "figS3": 5, "figS4": 5,
@@ -358,3 +358,102 @@ def test_the_figures_with_their_own_solves_are_drawn_beside_the_others(stand_ins
     text = (out / "summary.txt").read_text().splitlines()
     assert "fig3, figS1, figS3, figS4 in a process beside them" in text[0]
     assert text[-1].startswith("elapsed ") and "the walls overlap" in text[-1]
+
+
+def _on_dask() -> bool:
+    """Whether this runs as a task of a Dask worker."""
+    distributed = pytest.importorskip("distributed")
+    try:
+        distributed.get_worker()
+    except ValueError:
+        return False
+    return True
+
+
+def test_figure_all_on_a_dask_cluster_gives_the_pool_run(stand_ins, tmp_path, monkeypatch):
+    """``make_all(..., scheduler=)``: the fold-map rows and the fold curves are the
+    cluster's tasks, the rest stays here; the journals, PNGs' data and counts are
+    the local run's, and a second run from the same data folder computes nothing."""
+    import logging
+
+    distributed = pytest.importorskip("distributed")
+    where = {"map": [], "curve": []}
+    for name, kind in (("_run_map_point", "map"), ("trace_fold_curve", "curve"),
+                       ("trace_curvature_fold_curve", "curve")):
+        fn = getattr(foldmap, name)
+        monkeypatch.setattr(foldmap, name, lambda *a, fn=fn, kind=kind, **k: (
+            where[kind].append(_on_dask()), fn(*a, **k))[1])
+    names = ["fig2", "fig4", "fig5", "fig6", "fig7"]
+    local = figures.make_all("quick", tmp_path / "o1", tmp_path / "d1", progress=False,
+                             workers=1, names=names)
+    assert set(where["map"]) == set(where["curve"]) == {False}
+    n_local = {k: len(v) for k, v in where.items()}
+    where["map"].clear()
+    where["curve"].clear()
+    # an in-process cluster: its worker threads see this test's stand-ins
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+        with distributed.Client(cluster, set_as_default=False) as client:
+            runs = figures.make_all("quick", tmp_path / "o2", tmp_path / "d2", progress=False,
+                                    workers=1, names=names, scheduler=client)
+            # every computed row and curve ran on the cluster, each once
+            assert set(where["map"]) == set(where["curve"]) == {True}
+            assert {k: len(v) for k, v in where.items()} == n_local
+            again = figures.make_all("quick", tmp_path / "o2", tmp_path / "d2", progress=False,
+                                     names=names, scheduler=client)
+    assert sum(r.solves for r in again) == 0  # resumed from the data folder
+    assert not [r.error for r in runs if r.error]
+    # the same work; on the cluster the fold curves are traced with the shared rows
+    assert [r.name for r in runs] == ["fig2+fig4-rows+curves"] + [r.name for r in local[1:]]
+    for count in ("solves", "factorizations"):
+        assert sum(getattr(r, count) for r in runs) == sum(getattr(r, count) for r in local)
+    by = _by_name(runs)
+    assert _step(by["fig2+fig4-rows+curves"], "fold curves").computed == 18
+    assert (_step(by["fig7"], "fold curves").computed, _step(by["fig7"], "fold curves").cached) \
+        == (0, 18)
+    summary = json.loads((tmp_path / "o2" / "summary.json").read_text())
+    assert summary["scheduler"].startswith("inproc://") and summary["cluster_threads"] == 2
+    # the tables the PNGs are drawn from: the same records, computed elsewhere
+    stamps = {"finished_at", "host", "pid", "wall_time_s", "traceback"}
+    for table in ("foldmap-quick.csv", "foldcurves-quick.csv"):
+        a, b = (runner.read_journal(tmp_path / d / f"{table}.journal.jsonl",
+                                     key_of=lambda r: r["key"], required=("key",))
+                for d in ("d1", "d2"))
+        assert sorted(a) == sorted(b) and a
+        for key in a:
+            assert ({k: v for k, v in a[key].items() if k not in stamps}
+                    == {k: v for k, v in b[key].items() if k not in stamps}), key
+
+
+@pytest.mark.slow  # two coarse fold curves and four rows, on the pool and on a cluster
+def test_coarse_rows_and_curves_on_a_local_cluster_are_the_local_ones(tmp_path):
+    """The figures' door to the studies with a Dask cluster of two worker
+    processes: the same fold-map rows and fold curves, to the bit, as on the
+    studies' pool of two processes (the same code on the same machine, with
+    one BLAS thread a worker on both: in a process with two, the dot products
+    sum in another order, and the a/R 5 curve's points differ by 2e-7)."""
+    import logging
+
+    distributed = pytest.importorskip("distributed")
+    from skfem_sheet.figures.data import Workers, fold_curve_table, fold_map_table
+
+    rows = foldmap.map_points([0.0, 1.0], [2.5, 5.0], lengths=(0.8, 1.2), hmax=0.2, step=0.2)
+    curves = foldmap.curve_points([2.5, 5.0], hmax=0.25)
+    local_rows = fold_map_table(rows, "quick", tmp_path / "d1", False, 2)
+    local_curves = fold_curve_table(curves, "quick", tmp_path / "d1", False, 2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+        w = Workers(scheduler=cluster.scheduler_address)
+        dask_rows = fold_map_table(rows, "quick", tmp_path / "d2", False, w)
+        dask_curves = fold_curve_table(curves, "quick", tmp_path / "d2", False, w)
+    assert {r["host"] for r in [*runner.read_journal(
+        tmp_path / "d2" / "foldcurves-quick.csv.journal.jsonl", key_of=lambda r: r["key"],
+        required=("key",)).values()]} and dask_curves.attrs["fold_curves"]["new"] == 2
+    assert len(set(dask_rows.attrs["fold_map"]["new_keys"])) == 4
+    same_rows = ["key", "popup_length", "standout_length", "bistable", "converged",
+                 "curvature_dominated", "gravity_dominated", "newton_iterations"]
+    pd.testing.assert_frame_equal(dask_rows[same_rows], local_rows[same_rows])
+    same_curves = ["key", "standout_length", "popup_length", "cusp_tip_width", "cusp_length",
+                   "points", "n_points", "factorizations", "converged", "message"]
+    pd.testing.assert_frame_equal(dask_curves[same_curves], local_curves[same_curves])
+    assert local_curves.converged.all() and local_curves.bistable.all()

@@ -273,3 +273,42 @@ def test_a_point_settled_on_one_level_is_settled_first_on_the_next(monkeypatch):
     # at hmax 0.1 against 54; hmax 0.15, where nothing is known yet, 67 both)
     assert hinted.stages[1]["factorizations"] < plain.stages[1]["factorizations"]
     assert hinted.stages[0]["factorizations"] == plain.stages[0]["factorizations"]
+
+
+def test_a_carried_state_is_settled_by_one_newton_step(monkeypatch):
+    """A fold flat in the parameter on a branch curved in a stiff direction
+    (energy ``1e5 (y - 10 x^2)^2 / 2 + x^3 / 3 - L x``: the fold at L = 0): from
+    states a little off the branch in the stiff direction (a carried state's
+    membrane error) the fold system diverges; one Newton step of the
+    equilibrium on the section of the null vector (``SETTLE_STEP``) is enough
+    for it to converge, to the fold the converged settling leads to, with one
+    factorisation of settling instead of three."""
+    from skfem_sheet.engine import Tolerances, locate_fold
+    from skfem_sheet.foldcurve import refine as R
+    from skfem_sheet.foldcurve.options import SETTLE_STEP
+
+    def res(u, p):
+        m = u[1] - 10 * u[0]**2
+        return np.array([-2e6 * u[0] * m + u[0]**2 - p[0], 1e5 * m])
+
+    def jac(u, p):
+        m = u[1] - 10 * u[0]**2
+        return np.array([[-2e6 * m + 4e7 * u[0]**2 + 2 * u[0], -2e6 * u[0]],
+                         [-2e6 * u[0], 1e5]])
+
+    P = FunctionProblem(res, jac, ("L",))
+    tol = Tolerances(rtol=np.inf, utol=1e-10, max_iterations=20, max_correction=1.0)
+    assert R.SETTLE_STEP is SETTLE_STEP and SETTLE_STEP.max_iterations == 1
+    cases = [(np.array([x, 10 * x**2 + dy]), np.array([x**2]), np.array([1.0, 20 * x]))
+             for x, dy in ((0.003, 3e-6), (0.005, 5e-6))]
+    one = []
+    for u0, p0, v in cases:
+        direct, _ = locate_fold(P, u0, p0, "L", v0=v, tol=tol)
+        assert direct is None  # outside the fold system's basin
+        fold, _, lost, settled = R.settled_fold(P, None, "L", u0, p0, v, tol, True)
+        assert settled and lost == 1 and abs(fold.value) < 1e-12 and abs(fold.u[0]) < 1e-6
+        one.append(fold.value)
+    monkeypatch.setattr(R, "SETTLE_STEP", tol)  # the settling converged, as before
+    for (u0, p0, v), value in zip(cases, one):
+        fold, _, lost, settled = R.settled_fold(P, None, "L", u0, p0, v, tol, True)
+        assert settled and lost >= 3 and abs(fold.value - value) < 1e-12

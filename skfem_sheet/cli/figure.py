@@ -11,6 +11,8 @@ Examples
 ('fig2', 'paper', None, 'skfem_sheet_data')
 >>> p.parse_args(["figure", "all", "--out-dir", "figs"]).out_dir
 'figs'
+>>> p.parse_args(["figure", "all", "--scheduler", "tcp://host:8786"]).scheduler
+'tcp://host:8786'
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from ..figures import DEFAULT_DATA_DIR, FIGURES, QUALITIES, make_all, make_figur
 from ..figures.batch import SUMMARY_FILES
 from ..io import check_writable
 from ..params import ParameterError
+from ..studies.runner import Workers, dask_client
 
 __all__ = ["register", "run", "ALL"]
 
@@ -47,7 +50,12 @@ def register(subparsers) -> None:
                    help=f"folder of the cached tables (default ./{DEFAULT_DATA_DIR}/)")
     p.add_argument("--workers", type=int, default=None,
                    help="processes for the fold map, the fold curves and figS1's solves "
-                        "(default: one per CPU; figS1 two at most)")
+                        "(default: one per CPU; figS1 two at most); with --scheduler, the "
+                        "processes of this machine for what stays here")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a Dask scheduler, tcp://host:port: the fold-map rows and the fold "
+                        "curves run on its cluster, journalled in --data-dir as on local "
+                        "processes (resumable with or without it)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(run=run)
 
@@ -72,8 +80,15 @@ def run(args) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # deferred: after choosing the file backend (Agg)
 
-    fig = make_figure(args.name, args.quality, out, args.data_dir, progress=not args.quiet,
-                      workers=args.workers)
+    client, own = dask_client(args.scheduler) if args.scheduler else (None, False)
+    try:
+        workers = args.workers if client is None else Workers(scheduler=client,
+                                                               local=args.workers)
+        fig = make_figure(args.name, args.quality, out, args.data_dir,
+                          progress=not args.quiet, workers=workers)
+    finally:
+        if own:
+            client.close()
     plt.close(fig)
     print(f"{args.name} ({args.quality}): wrote {out} (data cached in {args.data_dir})")
     return 0
@@ -82,7 +97,7 @@ def run(args) -> int:
 def _run_all(args, out_dir) -> int:
     matplotlib.use("Agg")
     runs = make_all(args.quality, out_dir, args.data_dir, progress=not args.quiet,
-                    workers=args.workers)
+                    workers=args.workers, scheduler=args.scheduler)
     print(summary_text(runs, f"figure all ({args.quality}): data in {args.data_dir}"))
     wrote = [r.out for r in runs if r.out]
     print(f"wrote {len(wrote)} figures and "

@@ -15,6 +15,17 @@ of fig6 are on different length grids and are not shared.  Those four are
 drawn in one process of their own beside the others where the others
 compute on two workers or more (:data:`ALONGSIDE`, :func:`plan`).
 
+On a Dask cluster (``scheduler``, ``figure all --scheduler ADDRESS``) the
+fold-map rows and the fold curves are the cluster's tasks (through the
+studies' runner, as ``sweep`` and ``fold-map`` run theirs: the records come
+back here and are journalled in the data folder, so the run resumes from it
+like a local one, with or without the cluster), the fold curves in the same
+batch as fig2's and fig4's rows (:data:`CURVES_WITH_ROWS`: on many workers
+the rows alone leave most of them idle while the longest rows finish); what
+writes files of its own (fig3, figS1, figS3, figS4 and their caches) and the
+ribbon model stay on this machine, those four in the process beside
+(:func:`plan`).
+
 One progress bar (stderr) counts the figures; the bar of the step under way
 (the fold map, the fold curves, a figure's solves) shows below it while it
 runs.  At the end, :func:`make_all` writes the summary
@@ -33,12 +44,15 @@ Examples
 (['fig2', 'fig7'], ['fig3', 'figS1'])
 >>> plan(["fig2", "fig3", "fig7", "figS1"], workers=1)
 (['fig2', 'fig3', 'fig7', 'figS1'], [])
+>>> plan(["fig2", "fig3", "fig7", "figS1"], workers=Workers(scheduler="tcp://host:8786", local=1))
+(['fig2', 'fig7'], ['fig3', 'figS1'])
 """
 from __future__ import annotations
 
 import contextlib
 import os
 import sys
+import threading
 import time
 
 from tqdm.auto import tqdm
@@ -48,13 +62,22 @@ from ..io import atomic_write, dumps_json
 from ..params import ParameterError
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
-from .data import beside, fold_map_table, foldmap
+from .data import (
+    Workers,
+    beside,
+    dask_client,
+    fold_curve_points,
+    fold_curve_table,
+    fold_map_table,
+    foldmap,
+)
 from .figure2 import fig2_points
 from .figure4 import fig4_points
 from .registry import FIGURES, make_figure
 from .work import FigureRun, summary_json, summary_text
 
-__all__ = ["make_all", "run_order", "plan", "ALONGSIDE", "SHARED_ROWS", "SUMMARY_FILES"]
+__all__ = ["make_all", "run_order", "plan", "ALONGSIDE", "CURVES_WITH_ROWS", "SHARED_ROWS",
+           "SUMMARY_FILES"]
 
 #: The summary's files in the output folder: the text table and the JSON.
 SUMMARY_FILES = ("summary.txt", "summary.json")
@@ -76,6 +99,9 @@ _POINTS = {"fig2": fig2_points, "fig4": fig4_points}
 #: other waited (figS1's finest mesh alone 157 s of the 240 s the four took
 #: at paper quality on main 3a969d2); beside the workers they fill the cores.
 ALONGSIDE = ("fig3", "figS1", "figS3", "figS4")
+#: Figures whose fold curves (:func:`~skfem_sheet.figures.data.fold_curve_points`)
+#: are traced together with the rows of :data:`SHARED_ROWS` on a Dask cluster.
+CURVES_WITH_ROWS = ("fig7", "fig6")
 #: Figures whose data is computed on the workers (the fold map, the fold curves).
 _ON_WORKERS = ("fig2", "fig4", "fig6", "fig7")
 
@@ -93,13 +119,16 @@ def run_order(names) -> list:
 def plan(names, workers=None) -> tuple:
     """``(here, beside)``: the figures of ``names`` drawn one after the other
     in this process (in :func:`run_order`) and those of :data:`ALONGSIDE`
-    drawn in a process beside it -- none unless ``workers`` (default: one per
-    CPU) is at least 2 and a figure computed on the workers is drawn here.
-    See the module's examples."""
+    drawn in a process beside it -- none unless a figure computed on the
+    workers is drawn here and the workers are a Dask cluster's
+    (:class:`~skfem_sheet.studies.runner.Workers` with a scheduler: this
+    machine's cores are free while they compute) or at least 2 (default: one
+    per CPU).  See the module's examples."""
     order = run_order(names)
+    cluster = isinstance(workers, Workers) and workers.scheduler is not None
     n = (os.cpu_count() or 1) if workers is None else int(workers)
     side = [x for x in order if x in ALONGSIDE]
-    if n < 2 or not any(x in _ON_WORKERS for x in order):
+    if (n < 2 and not cluster) or not any(x in _ON_WORKERS for x in order):
         return order, []
     return [x for x in order if x not in side], side
 
@@ -125,10 +154,19 @@ def _out_folder(out_dir) -> str:
     return out_dir
 
 
+def _on_cluster(workers) -> bool:
+    return isinstance(workers, Workers) and workers.scheduler is not None
+
+
 def _shared_rows(names, quality, data_dir, progress, workers):
     """The rows of :data:`SHARED_ROWS` in one fold-map batch, as a summary
     entry (None unless all of them are in ``names``); an exception becomes
-    the entry's error (each figure then computes what it misses)."""
+    the entry's error (each figure then computes what it misses).
+
+    On a Dask cluster the fold curves of fig7 (and fig6's, two of them) are
+    traced at the same time (:data:`CURVES_WITH_ROWS`, ``-curves`` in the
+    entry's name): the two studies are independent, and on many workers the
+    rows' batch alone leaves workers idle while its longest rows finish."""
     if not all(n in names for n in SHARED_ROWS):
         return None
     points, seen = [], set()
@@ -138,15 +176,32 @@ def _shared_rows(names, quality, data_dir, progress, workers):
             if key not in seen:
                 seen.add(key)
                 points.append(p)
-    log = []
+    log, curve_log = [], []
+    curves = _on_cluster(workers) and any(n in names for n in CURVES_WITH_ROWS)
     t0 = time.perf_counter()
-    entry = "+".join(SHARED_ROWS) + "-rows"
+    entry = "+".join(SHARED_ROWS) + "-rows" + ("+curves" if curves else "")
+    errors, thread = [], None
+    if curves:
+        # the client is thread-safe and the curves' table their own; a daemon
+        # thread, so that Ctrl-C here is not held up by it (the journal keeps
+        # every curve it finished)
+        def trace():
+            try:
+                fold_curve_table(fold_curve_points(quality), quality, data_dir, False, workers,
+                                 curve_log)
+            except Exception as err:  # fig7 and fig6 then trace what they miss
+                errors.append(f"fold curves: {type(err).__name__}: {err}")
+
+        thread = threading.Thread(target=trace, name="fold curves", daemon=True)
+        thread.start()
     try:
         fold_map_table(points, quality, data_dir, progress, workers, log)
     except Exception as err:  # recorded in the summary; the figures go on
-        return FigureRun(entry, "", time.perf_counter() - t0, tuple(log),
-                         f"{type(err).__name__}: {err}")
-    return FigureRun(entry, "", time.perf_counter() - t0, tuple(log))
+        errors.insert(0, f"{type(err).__name__}: {err}")
+    if thread is not None:
+        thread.join()
+    return FigureRun(entry, "", time.perf_counter() - t0, tuple(log + curve_log),
+                     "; ".join(errors))
 
 
 def _draw(name, quality, out_dir, data_dir, progress, workers) -> FigureRun:
@@ -167,7 +222,7 @@ def _draw(name, quality, out_dir, data_dir, progress, workers) -> FigureRun:
 
 
 def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
-             progress: bool = True, workers=None, names=None) -> tuple:
+             progress: bool = True, workers=None, names=None, scheduler=None) -> tuple:
     """Draw every figure (or ``names``) into ``out_dir``, with the summary beside them.
 
     Parameters
@@ -181,10 +236,15 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     progress : bool
         One progress bar on stderr (and the bar of the step under way).
     workers : int, optional
-        Processes for the fold map and the fold curves (default: one per CPU).
+        Processes for the fold map and the fold curves (default: one per CPU);
+        with ``scheduler``, the processes of this machine for the work that
+        stays here (fig6's ribbon model; default: one per CPU).
     names : list of str, optional
         Keys of :data:`~skfem_sheet.figures.FIGURES` (default: all), drawn in
         :func:`run_order`.
+    scheduler : str or distributed.Client, optional
+        A Dask cluster (its address, ``tcp://host:8786``, or a client): the
+        fold-map rows and the fold curves run there (see the module).
 
     Returns
     -------
@@ -213,13 +273,33 @@ def make_all(quality: str = "quick", out_dir=".", data_dir=DEFAULT_DATA_DIR,
     import matplotlib  # deferred: import cost; the file backend before pyplot loads
 
     matplotlib.use("Agg", force=False)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    client, own = dask_client(scheduler) if scheduler is not None else (None, False)
+    try:
+        return _make_all(quality, out_dir, data_dir, progress, workers, names, client)
+    finally:
+        if own:
+            client.close()
+
+
+def _make_all(quality, out_dir, data_dir, progress, workers, names, client) -> tuple:
     about = {"quality": quality, "data_dir": os.fspath(data_dir), "out_dir": out_dir,
              "workers": workers, "version": version.__version__,
              "started_at": time.strftime("%Y-%m-%d %H:%M:%S %z")}
+    where = f"workers: {workers or 'one per CPU'}"
+    if client is not None:
+        about["scheduler"] = str(client.scheduler.address)
+        slots = sum(client.nthreads().values())
+        about["cluster_threads"] = slots
+        where = (f"Dask cluster {about['scheduler']} ({slots} threads); here: "
+                 f"{workers or 'one per CPU'}")
+        workers = Workers(scheduler=client, local=workers)
     here, side = plan(names, workers)
     about["beside"] = side
     title = (f"figure all, {quality} quality: data in {os.fspath(data_dir)}, figures in "
-             f"{out_dir} (workers: {workers or 'one per CPU'}"
+             f"{out_dir} ({where}"
              + (f"; {', '.join(side)} in a process beside them" if side else "") + ")")
     shared, done, t0 = None, {}, time.perf_counter()
     bar = tqdm(total=len(names), desc=f"figure all ({quality})", unit="fig", file=sys.stderr,

@@ -22,7 +22,7 @@ import pandas as pd
 
 from ..params import ParameterError
 from ..studies import foldmap
-from ..studies.runner import beside, pool
+from ..studies.runner import Workers, beside, dask_client, on_executor, study_executor
 from .cache import data_folder
 from .common import DEFAULT_DATA_DIR, quality_settings
 from .work import DataStep, note
@@ -31,7 +31,8 @@ __all__ = ["foldmap", "map_grid_points", "fold_map_table", "row_branches", "bran
            "usable", "select_rows", "as_bool", "fold_lines", "CURVE_CURVATURES",
            "RECTANGLE_CURVE_FROM", "fold_curve_points", "fold_curve_table", "curve_fold_lines",
            "curve_region", "curve_modes", "FIGURE_METHOD", "figure_method", "study_step",
-           "on_workers", "beside", "TRANSITION_WINDOW", "transition_window", "transition_rows"]
+           "on_workers", "beside", "Workers", "dask_client", "TRANSITION_WINDOW",
+           "transition_window", "transition_rows"]
 
 #: Where fig6 and fig7 take the bistable region from by default: ``"curves"``
 #: (traced fold curves) or ``"grid"`` (the point-by-point fold map, the reference).
@@ -86,9 +87,11 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     """Rows of the quality's fold-map table for ``points`` (computing the missing ones).
 
     The table is ``data_dir/foldmap-<quality>.csv`` with its journal; points
-    already journalled are read, not recomputed.  ``log``: a list to append
-    this step's :class:`~skfem_sheet.figures.work.DataStep` to (factorisations:
-    the computed rows' ``newton_iterations``).
+    already journalled are read, not recomputed.  ``workers``: a number of
+    local processes, or a :class:`~skfem_sheet.studies.runner.Workers` (a
+    Dask cluster: the rows are its tasks, journalled here).  ``log``: a list
+    to append this step's :class:`~skfem_sheet.figures.work.DataStep` to
+    (factorisations: the computed rows' ``newton_iterations``).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def fold_map_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, pr
     """
     table = os.path.join(data_folder(data_dir), f"foldmap-{quality}.csv")
     t0 = time.perf_counter()
-    df = foldmap.fold_map(points, table=table, workers=workers, progress=progress)
+    df = foldmap.fold_map(points, table=table, progress=progress, **study_executor(workers))
     note(log, study_step("fold map", df, df.attrs["fold_map"], "newton_iterations",
                          time.perf_counter() - t0))
     return df
@@ -246,10 +249,12 @@ def fold_curve_table(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, 
                      workers=None, log=None):
     """Rows of the quality's fold-curve table ``data_dir/foldcurves-<quality>.csv``
     for ``points`` (tracing the curves not yet journalled), one per curve;
-    ``log`` as in :func:`fold_map_table` (factorisations: the rows' own)."""
+    ``workers`` and ``log`` as in :func:`fold_map_table` (factorisations: the
+    rows' own)."""
     table = os.path.join(data_folder(data_dir), f"foldcurves-{quality}.csv")
     t0 = time.perf_counter()
-    df = foldmap.fold_curves(points, table=table, workers=workers, progress=progress)
+    df = foldmap.fold_curves(points, table=table, progress=progress,
+                             **study_executor(workers))
     note(log, study_step("fold curves", df, df.attrs["fold_curves"], "factorizations",
                          time.perf_counter() - t0))
     return df
@@ -266,13 +271,16 @@ def _unit_name(row) -> str:
 
 def on_workers(chunks, workers, task):
     """``task(chunk)`` for each of ``chunks`` on ``workers`` spawned processes
-    (the studies' pool, :func:`~skfem_sheet.studies.runner.pool`), yielding
-    each chunk's list of results as it finishes; a point whose worker failed
-    is None in it (the caller computes it again in its own process, where
-    the error is raised).  The figures' one door to the worker pool, as this module
-    is to the studies (with :func:`~skfem_sheet.studies.runner.beside`, one
-    task on a process of its own, re-exported here)."""
-    yield from pool(chunks, int(workers), task, lambda point, message, error: None)
+    (the studies' pool, :func:`~skfem_sheet.studies.runner.pool`), or on the
+    Dask cluster of a :class:`~skfem_sheet.studies.runner.Workers`
+    (:func:`~skfem_sheet.studies.runner.on_executor`), yielding each chunk's
+    list of results as it finishes; a point whose worker failed is None in it
+    (the caller computes it again in its own process, where the error is
+    raised).  The figures' one door to the worker pool, as this module is to
+    the studies (with :func:`~skfem_sheet.studies.runner.beside`, one task on
+    a process of its own, :class:`~skfem_sheet.studies.runner.Workers` and
+    :func:`~skfem_sheet.studies.runner.dask_client`, re-exported here)."""
+    yield from on_executor(chunks, workers, task, lambda point, message, error: None)
 
 
 def study_step(what, df, stats, counter, wall_time_s) -> DataStep:

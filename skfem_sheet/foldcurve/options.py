@@ -4,11 +4,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..engine import Tolerances
 from ..sheet_shape import TOLERANCES
 
 __all__ = ["FINE_TOLERANCES", "MAX_REMESHES", "MESH_LENGTH_GRID", "PREDICTOR", "REFILL_DS", "SECOND",
-           "SEED_TOLERANCES", "TARGET_CORRECTION", "TOLERANCES", "FoldCurveOptions",
+           "SEED_TOLERANCES", "SETTLE_STEP", "TARGET_CORRECTION", "TOLERANCES", "FoldCurveOptions",
            "default_start_length", "kind"]
 
 #: Predictor of the fold-curve continuation (see :func:`skfem_sheet.engine.fold_curve`).
@@ -42,6 +44,23 @@ MAX_REMESHES = 40
 #: with those points), against 1e-3 to 2e-3 between hmax 0.06 and 0.03.
 FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3,
                              error_estimate=True)
+
+#: The settling of a state carried onto a finer mesh before its fold is
+#: located from it (:func:`~skfem_sheet.foldcurve.refine.settled_fold`): one
+#: Newton step of the equilibrium on the section of the null vector, taken
+#: whatever its size up to :data:`FINE_TOLERANCES`' ``max_correction`` (the
+#: settling is not converged to a tolerance).  What keeps the fold system
+#: from converging from a carried state is its tangent: ``sigma`` and the
+#: null vector are those of the tangent at the iterate, whose geometric
+#: stiffness carries the membrane stress of the interpolated state (the
+#: difference of two meshes, amplified by the membrane stiffness of a thin
+#: sheet), not the stress of an equilibrium on the finer mesh.  One Newton
+#: step of the equilibrium removes that stress to second order in the
+#: carried state's error, and the fold system converges from there as from
+#: the converged equilibrium (the record:
+#: ``benchmarks/results/speed/fold_curves_issue59.txt``).
+SETTLE_STEP = Tolerances(rtol=np.inf, utol=FINE_TOLERANCES.max_correction, max_iterations=1,
+                         max_correction=FINE_TOLERANCES.max_correction)
 
 #: The corrector's stopping rule for the coarse trace of a curve refined
 #: coarse to fine (its points only seed the finer levels, which correct

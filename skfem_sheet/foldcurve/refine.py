@@ -32,6 +32,7 @@ from .options import (
     PREDICTOR,
     REFILL_DS,
     SECOND,
+    SETTLE_STEP,
     TARGET_CORRECTION,
     FoldCurveOptions,
     kind,
@@ -238,9 +239,12 @@ def refine(kept, chosen, j, make_fine, tol, check_inertia, last_is_end=True, end
 def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
     """The fold from a state carried onto ``P``: located from it directly
     (:func:`fold_from`), and if that fails (the state outside Newton's
-    basin of the fold system) from the state settled first as an
-    equilibrium on the section of its null vector ``v`` (L free,
-    :func:`~skfem_sheet.engine.fold.equilibrium_on_section`).  With
+    basin of the fold system) from the state settled first by one Newton
+    step of the equilibrium on the section of its null vector ``v`` (L
+    free, :func:`~skfem_sheet.engine.fold.equilibrium_on_section`,
+    :data:`~skfem_sheet.foldcurve.options.SETTLE_STEP`: it is the
+    carried state's membrane stress in the tangent that the fold system
+    cannot start from, and one step removes it).  With
     ``settle_first`` (the point needed settling on the coarser mesh it
     comes from) the two are tried the other way round: the carried state's
     distance to the fold comes from the difference of two meshes, of one
@@ -271,7 +275,7 @@ def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
     for settle in ((True, False) if settle_first else (False, True)):
         if settle:
             start = equilibrium_on_section(P, u, p, "L", (v, np.zeros_like(p), P.inner(v, u)),
-                                           tol=tol)
+                                           tol=SETTLE_STEP)
             lost += start.stats.factorizations
             if not start.converged:
                 res = start

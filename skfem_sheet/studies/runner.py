@@ -67,7 +67,8 @@ __all__ = ["Job", "EachPoint", "StudyInterrupted", "computed_record", "failed_re
            "Journal", "journal_path", "read_journal", "write_table",
            "check_table", "typed_frame", "table_records", "record_failure", "finish_record",
            "utc_now", "normalize_number", "normalize_int", "normalize_params", "key_value",
-           "hash_key", "as_values", "pool", "beside", "dask", "dask_client", "MAX_POINTS"]
+           "hash_key", "as_values", "pool", "beside", "dask", "dask_client", "Workers",
+           "study_executor", "on_executor", "MAX_POINTS"]
 
 SIGNIFICANT = 10          # digits kept when normalising numbers (the key and the computation)
 MAX_POINTS = 100_000      # largest study accepted
@@ -772,6 +773,83 @@ def _isolated(points, new_pool, task, failed):
         _stop_pool(ex, kill=True)
         raise
     _stop_pool(ex, kill=False)
+
+
+# -- where a batch runs ---------------------------------------------------------------------
+@dataclass(frozen=True)
+class Workers:
+    """Where the tasks of a batch run: the Dask cluster of ``scheduler``, or
+    ``local`` processes of this machine.
+
+    The value a caller that forwards a number of workers (the figures, their
+    ``workers`` argument) forwards instead, so that the studies under it
+    (:func:`execute`: the fold map, the fold curves) and :func:`on_executor`
+    run their tasks on the cluster, journalled here as on local processes.
+    Work that stays on this machine (what writes files of its own, or is
+    cheap) takes it as a number: ``int(workers)`` is ``local``, or one per
+    CPU of this machine if ``local`` is None.
+
+    Attributes
+    ----------
+    scheduler : str, distributed.Client or None
+        The cluster (an address like ``tcp://host:8786``, or a client); None:
+        ``local`` processes.
+    local : int or None
+        Processes of this machine.
+
+    Examples
+    --------
+    >>> w = Workers(scheduler="tcp://127.0.0.1:8786", local=3)
+    >>> int(w), study_executor(w)
+    (3, {'workers': None, 'scheduler': 'tcp://127.0.0.1:8786'})
+    >>> study_executor(4), study_executor(Workers(local=2))
+    ({'workers': 4, 'scheduler': None}, {'workers': 2, 'scheduler': None})
+    """
+
+    scheduler: object = None
+    local: int | None = None
+
+    def __post_init__(self):
+        if self.local is not None and (isinstance(self.local, bool)
+                                       or not isinstance(self.local, int) or self.local < 1):
+            raise ParameterError(f"local must be an integer >= 1, got {self.local!r}")
+
+    def __int__(self) -> int:
+        return int(self.local) if self.local is not None else (os.cpu_count() or 1)
+
+    __index__ = __int__
+
+    def __float__(self) -> float:
+        return float(int(self))
+
+
+def study_executor(workers) -> dict:
+    """``workers`` (None, a number, or :class:`Workers`) as the ``workers`` and
+    ``scheduler`` arguments of a study (:func:`execute`, :func:`check_run`).
+    See :class:`Workers` for examples."""
+    if isinstance(workers, Workers):
+        if workers.scheduler is not None:
+            return {"workers": None, "scheduler": workers.scheduler}
+        return {"workers": workers.local, "scheduler": None}
+    return {"workers": workers, "scheduler": None}
+
+
+def on_executor(chunks, workers, task, failed):
+    """``task(chunk)`` for each of ``chunks`` on the Dask cluster of ``workers``
+    (a :class:`Workers` with a scheduler: :func:`dask`) or on ``int(workers)``
+    spawned local processes (:func:`pool`); yields each chunk's list of
+    records as it finishes (``failed(point, message, error)`` for a point
+    whose task died)."""
+    ex = study_executor(workers)
+    if ex["scheduler"] is None:
+        yield from pool(chunks, int(workers), task, failed)
+        return
+    client, own = dask_client(ex["scheduler"])
+    try:
+        yield from dask(chunks, client, task, failed)
+    finally:
+        if own:
+            client.close()
 
 
 # -- Dask ----------------------------------------------------------------------------------
