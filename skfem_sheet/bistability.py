@@ -309,10 +309,8 @@ def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
     chord step): a thin sheet one correction of 1e-6 a away from its
     equilibrium still has residuals of a percent of its weight in the stiff
     membrane directions, which the factorisation at a state that close
-    removes as well as a new one (measured on the rectangle at a/R 2.5,
-    hmax 0.05, steps in L of 0.025 and 0.05: residuals 1.4e-2 and 1.9e-4 of
-    the weight brought to 2.9e-5 and 7.8e-8 by one chord step each, two
-    factorisations per step instead of three).  Otherwise the tangent is
+    removes as well as a new one (``docs/decisions.md``, "Chord steps").
+    Otherwise the tangent is
     factorised at the iterate, at most ``max_factorizations`` times per
     correction.
     """
@@ -688,10 +686,8 @@ class _Guide:
     and ``L1`` are points of the coarse branch on one coarse mesh, the coarse
     branch's own curvature term ``w_c(L1) - w_c(L0) - (L1 - L0) w_c'(L0)``,
     interpolated onto the fine mesh at ``L1``, is added: the prediction's
-    error is then the difference of the two meshes' curvature terms (measured
-    on the rectangle at a/R 2.5, hmax 0.05 guided by 0.1, steps of 0.05: 1e-5
-    to 4e-4 instead of 9e-4 to 4e-3 of a, and 1-2 Newton iterations instead
-    of 2-3).  Elsewhere (a step halved off the coarse points, past the coarse
+    error is then the difference of the two meshes' curvature terms, an
+    order smaller (``docs/decisions.md``, "A guided fine branch").  Elsewhere (a step halved off the coarse points, past the coarse
     fold, across a coarse remesh) no correction: the tangent as without a
     guide.
     """

@@ -9,8 +9,8 @@ Two questions of a researcher with their own sheets (paper, Figs. 2, 3, 5):
   differentiates a located fold by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
   (:func:`skfem_sheet.analyses.sensitivity.fold_sensitivities`): no fold is
   located again at another parameter value.
-- *Which modulus makes the model match the deflections I measured?*
-  :func:`calibrate` fits free parameters to measured tip deflections by
+- *Which modulus makes the model match the deflections I observed?*
+  :func:`calibrate` fits free parameters to observed tip deflections by
   least squares (:func:`scipy.optimize.least_squares`), each solve giving
   its Jacobian row by one back-substitution
   (``solve(..., sensitivities=...)``), with standard errors from ``J^T J``;
@@ -304,14 +304,14 @@ class CalibrationError(ParameterError):
 
 @dataclass(frozen=True)
 class Measurement:
-    """One measured tip deflection and the sheet it was measured on.
+    """One observed tip deflection and the sheet it was observed on.
 
     Attributes
     ----------
     deflection : float
         d/a, positive downward (the package's :func:`~skfem_sheet.analyses.observables.tip_deflection`).
     length : float or None
-        L/a of the measured sheet (None: that of the sheet given to :func:`calibrate`).
+        L/a of the observed sheet (None: that of the sheet given to :func:`calibrate`).
     tip_width : float or None
         Its b/a (None: the calibration sheet's).
     curvature : float or None
@@ -425,7 +425,7 @@ class Calibration:
     model_deflections : tuple of float
         The model's d of each measurement at the fit.
     residuals : tuple of float
-        Model minus measured d.
+        Model minus observed d.
     branches : tuple of str
         The branch each measurement's solve ended on at the fit.
     sheet : Sheet
@@ -608,7 +608,7 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
               hmax: float = DEFAULT_HMAX, *, gravity: float = 1.0, solver: str = "auto",
               max_evaluations: int = 20, xtol: float = 1e-5, layers=None,
               start="coarse", progress: bool = False) -> Calibration:
-    """Fit free parameters of ``sheet`` to measured tip deflections.
+    """Fit free parameters of ``sheet`` to observed tip deflections.
 
     Least squares on the residuals ``(d_model_i - d_i) / sigma_i``
     (:func:`scipy.optimize.least_squares`, trust region reflective within
@@ -641,8 +641,8 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
         Most model evaluations.
     xtol : float
         Relative change of the parameters at which the fit stops (1e-5: far
-        below the standard error of any measured deflection; smaller costs an
-        evaluation more with noisy data, measured).
+        below the standard error of any observed deflection; smaller costs an
+        evaluation more with noisy data).
     progress : bool
         A tqdm bar on stderr: the solves made, with the parameters being tried
         (each model evaluation is one solve per measurement; the bar has no

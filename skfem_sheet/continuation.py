@@ -67,7 +67,7 @@ class StepOptions:
     """The load steps: their lengths and the one acceptance rule
     (:class:`~skfem_sheet.engine.StepRule`).
 
-    Lengths are measured per unit of the sheet's size ``max(1, L/a)``
+    Lengths are counted per unit of the sheet's size ``max(1, L/a)``
     (displacements grow with the length): a step is an arclength in the
     phase's load fraction and the state (about a fraction of the phase where
     the branch is gentle, a displacement where it is steep).
@@ -252,11 +252,9 @@ def newton_tolerances(options: NewtonOptions, utol: float | None = None) -> Tole
     """The sheet's Newton stopping rule as the engine's :class:`Tolerances`
     (residual relative to the full weight, largest displacement correction);
     with ``utol``, for the loose points on the way: that correction bound and a
-    residual of at most the sheet's own weight (measured: without the
-    residual bound, Newton's first iterate from a prediction past a fold,
-    with a small correction from the tangent there, was accepted as a point
-    of the branch where none is near, and four of the 31 snapping sheets of
-    the stress benchmark lost their path)."""
+    residual of at most the sheet's own weight (without it, a first iterate
+    past a fold can pass as a point of the branch: ``docs/decisions.md``,
+    "The loose points' residual bound")."""
     tol = Tolerances(rtol=options.rtol, utol=options.utol, max_iterations=options.max_iterations,
                      max_halvings=options.max_halvings, divergence_floor=0.1)
     return tol if utol is None else replace(tol, rtol=1.0, utol=utol)
@@ -653,14 +651,10 @@ def cylinder_state(problem, kappa, pressure="zero"):
 
     Notes
     -----
-    Measured as the start of a Newton solve at zero gravity against the
-    curvature ramp of ``curvature-first`` (``benchmarks/solve_speed_cylinder.py``,
-    ``benchmarks/results/solve_cylinder_start_hmax0.1.txt``): it does not
-    pay, so the load paths do not use it.  The sheet is no cylinder: away
-    from the clamp the transverse curvature relaxes and the centre line lifts
-    (by 0.3 a at the tip of L/a = 2, a/R = 4), and Newton from the cylinder
-    diverges at a/R >~ 3 and needs 6-12 iterations below, where the ramp
-    takes 8-24 factorisations in all.
+    As a start of Newton at zero gravity it does not pay, so the load paths do
+    not use it: the sheet is no cylinder (away from the clamp the transverse
+    curvature relaxes and the centre line lifts); the record:
+    ``benchmarks/results/speed/solve_cylinder_start_hmax0.1.txt``.
     """
     if pressure not in ("zero", "plate"):
         raise ParameterError(f"pressure must be 'zero' or 'plate', got {pressure!r}")

@@ -376,12 +376,8 @@ class PardisoSolver(_Timed):
     supernode updates in an order that depends on thread timing, and a
     pseudo-transient snap amplifies that round-off into different Newton
     iteration counts and end states).  ``iparm(34)`` alone switches the mode
-    on (``MKL_CBWR`` is not needed; set, it also does).  Cost: none measured --
-    on the shared 2-core machine (load 16-20) full solves of the hmax 0.06
-    rectangle took 0.67x the wall time of the free-running threads (median of
-    four alternating pairs, ``benchmarks/results/
-    solve_sample_reproducible_hmax0.06.txt``); with one thread the two are
-    equally fast.
+    on (``MKL_CBWR`` is not needed; set, it also does).  It costs no time
+    (the record: ``benchmarks/results/speed/solve_sample_reproducible_hmax0.06.txt``).
 
     Parameters
     ----------
@@ -434,9 +430,8 @@ class PardisoSolver(_Timed):
         # iparm(8) = 0: PARDISO's default, two steps of iterative refinement
         # only where the factorisation perturbed pivots; an exact factorisation
         # solves to a relative residual of 1e-10 without them, and each step
-        # (a product and a solve) made a back-substitution 2.4x as long
-        # (measured, the half rectangle L 1.3 at hmax 0.03, one thread:
-        # 0.131 s against 0.055 s, the solutions equal to 1e-13)
+        # (a product and a solve) makes a back-substitution 2.4x as long
+        # (docs/decisions.md, "No iterative refinement in PARDISO")
         ip[7] = 0
         ip[9] = int(pivot_perturbation)   # iparm(10): perturb pivots below 10^-value
         ip[10] = int(bool(scaling))       # iparm(11): symmetric scaling

@@ -162,8 +162,7 @@ def default_layers(thickness: float, hmax: float) -> int:
     Taylor-Hood (P2-P1) tetrahedra lose their inf-sup stability when no vertex
     of an element is interior: the pressure then enforces ``J = 1`` poorly
     (pointwise ``J - 1`` of 0.1) and Newton stalls or bounces at mesh-dependent
-    loads.  Measured on the flat rectangle L = 1.3, hmax = 0.06: 128 Newton
-    iterations and 15 rejected load steps with one layer, 52 and 4 with two.
+    loads (``docs/decisions.md``, "At least two layers").
     """
     return max(2, math.ceil(thickness / hmax - 1e-9))
 
@@ -276,7 +275,7 @@ def chord_error(xy, tri, length: float, planform=None) -> float:
     them on the spline through the profile, within about 1e-6 of the profile
     itself, and on the exact circle arcs of the bites), its edges are chords:
     between their ends they leave the curve by up to their sagitta, greatest
-    near their midpoints.  Measured at every boundary vertex and edge midpoint
+    near their midpoints.  Evaluated at every boundary vertex and edge midpoint
     on a curved piece of the outline (not on the axis ``y = 0``, the clamp
     ``x = 0`` or the tip cut ``x = L``, which are straight and meshed
     exactly): the vertical gap to the profile ``y = p(x/L)/2`` (at least the

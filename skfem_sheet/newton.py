@@ -226,7 +226,7 @@ class _SheetNewton(Problem):
         equilibrium still has residuals above ``rtol`` in the stiff membrane
         directions, which the factorisation at a state that close removes
         as well as a new one (the same rule as the continuation in L,
-        :func:`skfem_sheet.bistability._chord_linearization`; measured in
+        :func:`skfem_sheet.bistability._chord_linearization`; the record:
         ``benchmarks/results/speed/solve_sample_hmax0.03_chord.txt``)."""
         r = self.last[1]
         rn = float(np.linalg.norm(r[self.free]))

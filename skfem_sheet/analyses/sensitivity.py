@@ -116,7 +116,7 @@ RELATIVE_STEP = 1e-5
 #: is refactorised at the state.
 MAX_REFINEMENTS = 4
 #: Relative residual of equation (1) at which the refinement stops (the held
-#: factorisation at the state meets it at once: 1e-12 to 6e-10, measured) ...
+#: factorisation at the state meets it at once, at 1e-12 to 6e-10) ...
 REFINEMENT_TOL = 1e-8
 #: ... or, where it stops contracting, the largest one accepted: the round-off
 #: floor of the saddle-point solve of a thin sheet is about 6e-10 (the gravity

@@ -10,9 +10,8 @@ on the cell that contains each point), but the cells are found differently.
 scikit-fem's element finder (``MeshTet1.element_finder``) queries the ten
 nearest element centroids of every point and then maps *every* point into
 *every* candidate element at once: an array of ``3 x points x candidates``
-doubles, i.e. memory growing like the square of the mesh (measured: +1.4 GB
-for one transfer at hmax 0.06, tens of GB at hmax 0.03), and a search of all
-elements if one point is missed.
+doubles, i.e. memory growing like the square of the mesh (tens of GB at hmax
+0.03), and a search of all elements if one point is missed.
 
 The sheet meshes are extruded from a plan triangulation
 (:func:`skfem_sheet.mesh.extrude`): vertex ``i`` of layer ``k`` is
@@ -57,8 +56,8 @@ from ..params import ParameterError
 __all__ = ["CHUNK", "ExtrudedLocator", "TransferError", "carry_distance", "interpolate",
            "transfer"]
 
-#: Points located and interpolated at once (bounds the working memory:
-#: measured about 0.75 kB per point, i.e. some 15 MB per chunk).
+#: Points located and interpolated at once (bounds the working memory: about
+#: 0.75 kB per point, i.e. some 15 MB per chunk).
 CHUNK = 20_000
 
 #: Largest distance outside a cell, in barycentric coordinates, of a point

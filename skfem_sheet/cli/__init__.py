@@ -12,7 +12,7 @@ Commands:
 - ``fold-curve``: the fold curve in (L, b/a) at one a/R, through its cusp
 - ``fold-map``: pop-up and standout lengths over a grid of (b/a, a/R)
 - ``figure``: one of the paper's figures
-- ``calibrate``: fit the modulus (or other parameters) to measured tip deflections
+- ``calibrate``: fit the modulus (or other parameters) to observed tip deflections
 - ``switch``: switching forces and energy barriers of a bistable sheet
 
 All argument parsing of the package lives here, one module per command; each
@@ -23,8 +23,8 @@ exposes ``register(subparsers)``, which adds the command's parser and sets
 Bad arguments give a one-line message naming the parameter and the allowed
 range, and exit code 2 (no traceback).  A solve that does not reach full load
 prints why and exits with code 1 (its JSON says ``"converged": false``).
-Ctrl-C exits with code 130 within seconds (measured 0.7-2.7 s; a factorisation
-under way finishes first); a study (``sweep``, ``fold-map``, ``figure``) abandons
+Ctrl-C exits with code 130 within seconds (a factorisation under way
+finishes first); a study (``sweep``, ``fold-map``, ``figure``) abandons
 the points in flight and says how many it finished and kept, and where.
 """
 from __future__ import annotations

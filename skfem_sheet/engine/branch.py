@@ -237,8 +237,7 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         fold where Newton on the fold system fails from the last point; 0:
         none).  Near a fold flat in the parameter Newton at fixed parameter
         fails within ``min_step`` of it and the fold system's basin can be
-        smaller than that (the sheet at hmax 0.2, a/R 2.5: 1e-4 from its
-        pop-up fold).
+        smaller than that.
 
     Returns
     -------

@@ -353,9 +353,8 @@ class ChordTest:
     matrix is close to the one at the iterate: after the first Newton step
     from a prediction it is the matrix at the prediction, and on a thin sheet
     (whose stiffness changes with its membrane stress over a small move) the
-    estimate can then be far too small (measured: a step of a load ramp
-    accepted after one correction of 0.003 a, with a simplified correction
-    below the tolerance, past a fold, where no equilibrium is near).  With
+    estimate can then be far too small (``docs/decisions.md``, "The chord
+    test waits for a second linearisation").  With
     ``start`` (the prediction), the test therefore waits for the second
     linearisation, made at an iterate within one Newton correction of the
     current one.

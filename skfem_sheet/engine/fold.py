@@ -877,10 +877,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             # Newton's method contracts |g| on its way to a simple zero, or
             # overshoots it (g changes sign: a fold between the two
             # sections); an iterate where g keeps its sign and does not
-            # shrink straddles a minimum of |dp/dc|, not a fold (measured:
-            # the issue-17 sheet at hmax 0.16, a rate minimum with dp/dc
-            # about 0.2 searched for 12 iterations and 37 factorisations,
-            # the sections alternating about it)
+            # shrink straddles a minimum of |dp/dc|, not a fold, about which
+            # the sections would alternate
             return failed(f"Newton on dp/dc = 0 does not contract (dp/dc {g:.3g} after "
                           f"{g_last:.3g}, the same sign): no fold near", pt[0])
         g_last, c_last, pt_last = g, c_here, pt
@@ -915,10 +913,7 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     # itself, but the last section lies up to the load tolerance before it,
     # where t = u' differs from the null vector by O(g) and v . R_p picks up
     # -g R_p K^-1 R_p off the null direction, which outweighs it where the
-    # load barely moves the mode -- measured: the pop-up folds of L 1.2, b 0.8,
-    # a/R 2.5 at hmax 0.08 and L 1.3, b 1, a/R 6 at hmax 0.1, gravity-first,
-    # located from states carried from a coarser mesh one section before the
-    # fold (dp/dc -0.011), gave +1 with g' -6.9 and -2.3.)
+    # load barely moves the mode: docs/decisions.md, "The side of a fold".)
     out = NewtonResult(u_fold, p_fold, True, stats.newton_iterations, "", (), None, stats,
                        {"v": vn, "sigma": sigma, "a": a, "R_p": r_p[:, None],
                         "side": int(np.sign(g2)), "inertia": res.factorization.inertia()})

@@ -13,9 +13,9 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   does; a natural step whose Newton fails is retried as a pseudo-arclength
   one (Newton at fixed parameter fails ahead of a fold).  The direction is
   the unit tangent at the first point and then the secant of the last two
-  points (measured on the sheet's load ramps: the tangent from the
-  factorisation a corrector ends with, which is not at the converged state,
-  let steps jump over folds the secant's steps met).
+  points (the tangent from the factorisation a corrector ends with is not
+  the tangent at the converged state; ``docs/decisions.md``, "The secant
+  direction").
 - **acceptance** (the one step rule,
   :class:`~skfem_sheet.engine.steps.StepRule`): the corrector converged
   (:class:`~skfem_sheet.engine.corrector.ChordTest`, at least two
@@ -40,8 +40,7 @@ parameter (the load) goes to ``stop``, and ends either there or at the first
   slope.
 - **folds within a step**: a step can cross a sharp fold, or a thin S-shaped
   fold pair, whole (the parameter monotone over its ends, the inertia the
-  same at both: measured on the sheets near the cusp of their bistable
-  range).  Two rules from the parabola the parameter makes in the arclength
+  same at both: near the cusp of a fold pair).  Two rules from the parabola the parameter makes in the arclength
   near a fold: the next step is at most three times the distance to where
   the line of the falling rate ``|t_p|`` vanishes (:func:`_turn_bound`), so
   that it ends past a turn ahead with the parameter turned; and where the
@@ -132,11 +131,8 @@ def _predict(points, i, at, value, t):
     """Prediction ``(u, p)`` along the direction ``t`` of the last point (the
     unit tangent at the first point, then the secant of the last two), at
     the arclength ``value`` from it (``at="s"``) or at the parameter
-    ``value`` (``at="p"``).  Its error is second order in the step.
-
-    (An interpolant through three points, of third order, was measured on
-    the gravity ramp of a long sheet: its extrapolation overshoots where the
-    branch bends, and Newton failures cost more than it saves.)"""
+    ``value`` (``at="p"``).  Its error is second order in the step (not
+    third: ``docs/decisions.md``, "The secant direction")."""
     last = points[-1]
     h = value - (last.s if at == "s" else last.p[i])
     if at == "s":
@@ -236,10 +232,7 @@ def _turn_bound(points, rate_at):
     the last point's (``2 a`` ends level with it), which :func:`ramp` detects
     and locates.  A longer step can cross a sharp fold, or a thin S-shaped
     fold pair, turning (and turning back) within the step with no sign of it
-    at its ends (measured at hmax 0.1: L 0.985, b 0.840, a/R 5.71 and L 1.15,
-    b 0.7, a/R 4.6, gravity-first, from points 3e-4 and 1e-5 of the phase
-    before their pop-up folds, where the secants' rates were still 0.11 and
-    0.16).  None where the rates did not fall, or the tangent's rate is not
+    at its ends (``docs/decisions.md``, "Folds within a step").  None where the rates did not fall, or the tangent's rate is not
     below the secant's (no turn ahead by this line).
     """
     if len(points) < 2:
@@ -690,11 +683,8 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         elif dist > rule.delta:
             # the halving test, where the distance is above nominal: on the
             # branch the distance of the half step falls (fourfold, at least
-            # twofold); after a jump it does not.  (Measured: judging the
-            # distance against the one the last step predicts for this length
-            # instead lets a step of 0.21 jump over the pop-up fold of L
-            # 1.073, b 0.81, a/R 5.17 gravity-first at hmax 0.1, distance 0.086
-            # where 0.054 was predicted.)
+            # twofold); after a jump it does not (docs/decisions.md, "The
+            # halving test")
             half = attempt(0.5 * h, natural_ok)
             if half[1] is not None and half[1] <= 0.5 * dist:
                 queue = [half[0], res]

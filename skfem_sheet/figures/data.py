@@ -49,9 +49,8 @@ _MODES = ("curvature_dominated", "gravity_dominated")
 #: Half-width (L/a) of the lengths a point's transition is traced over on its
 #: own mesh, around the transition on the coarse mesh (:func:`transition_rows`).
 #: It sets only the cost: a windowed row whose steepest interval is not inside
-#: its window is replaced by the whole row.  (Measured at hmax 0.03 from 0.1,
-#: b/a 0.55 at a/R 2.5 and 0.3 at a/R 5: the coarse and the fine transitions
-#: were the same, 1.25078125 and 1.7125, and so were the windowed rows'.)
+#: its window is replaced by the whole row (``docs/decisions.md``, "The
+#: transition window").
 TRANSITION_WINDOW = 0.2
 
 

@@ -66,7 +66,7 @@ Two couplings make c non-zero when the sheet bends (Phi' < 0):
   root is 56 / 100 / 152 at L = 0.5 / 0.7 / 1.0 (elastica curvature), and the
   bending-energy-weighted mean of nu^2/(1 + beta^2/60) is 1.4 / 0.55 / 0.30 %
   (the clamp suppresses c further over about one width from the root).
-  Besides, the tip's t = 0 point, where d is measured (as in the 3D
+  Besides, the tip's t = 0 point, where d is taken (as in the 3D
   solver), lies c(L) p(L)^2/4! below the tip's centre of mass: for the
   rectangle at L = 0.5 that is 1.33 of the 1.92 %.  With nu = 0 the
   rectangle's difference vanishes (to 1e-6).

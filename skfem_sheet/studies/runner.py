@@ -627,8 +627,8 @@ def _stop_pool(ex, kill):
     (``kill=True``: the points in flight are abandoned, their workers killed).
 
     The workers are taken before ``shutdown``, which forgets them: killed
-    after it, they went on with their points, and the interpreter's exit
-    waited for those (measured: 37-67 s after Ctrl-C on a sweep).
+    after it, they would go on with their points, and the interpreter's exit
+    would wait for those.
     """
     if not kill:
         ex.shutdown(wait=True)
