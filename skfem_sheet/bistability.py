@@ -1,61 +1,22 @@
 """Bistability: continuation in the sheet length, fold lengths located, the S-curve.
 
-In the bistable range a sheet has two stable equilibria (paper, Figs. 2, 4, 6
-and 7): the curvature-dominated (aloft) one, which exists up to the
-*standout length* ``L1*``, and the gravity-dominated (drooped) one, which
-exists down to the *pop-up length* ``L0*``.  The sheet is bistable for
-``L0* < L < L1*``; between the two stable branches lies an unstable one, and
-the three form an S-shaped curve of ``d`` against ``L`` whose turning points
-(folds) are ``L0*`` and ``L1*``.  Both are properties of the *family* of
-lengths of one planform at one clamp curvature and material: the question
-:func:`fold_lengths` answers for a :class:`~skfem_sheet.params.Sheet` (its
-planform, curvature, thickness and modulus; its own length is placed
-against them).
+In the bistable range ``L0* < L < L1*`` a sheet has two stable equilibria
+(paper, Figs. 2, 4, 6 and 7): the curvature-dominated one, which exists up to
+the *standout length* ``L1*``, and the gravity-dominated one, down to the
+*pop-up length* ``L0*``; with the unstable branch between them they form an
+S-shaped curve ``d(L)`` whose folds are ``L0*`` and ``L1*``.
 
-How the length is made a continuous parameter: a problem built on a mesh of
-length ``L_m`` is stretched in x to any nearby length
-(:meth:`skfem_sheet.problem.SheetProblem.with_length`), so one mesh topology
-carries the nodal solution from one length to the next; beyond the remesh
-rule's stretch (:data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`) the sheet
-is remeshed at the current length and the solution is interpolated onto the
-new mesh (:func:`transfer`).
-
-How a fold is found: every continuation here runs on the engine's drivers
-(:func:`skfem_sheet.engine.natural`, :func:`skfem_sheet.engine.arclength`),
-with the sheet adapted to the engine's problem protocol by
-:class:`~skfem_sheet.sheet_shape.SheetShapeProblem` (one parameter, L or a/R,
-on a stretched and remeshed mesh) and corrected with the sheet's Newton
-stopping rule (:func:`_chord_linearization`).  Where a step of the
-continuation fails, the end of the branch is *located* with the minimally
-augmented fold system (:func:`skfem_sheet.engine.locate_fold`, as the fold
-curves do), never bracketed by failed solves; a branch that ends without a
-located fold says why (``Branch.reason``).  :func:`fold_lengths` then
-locates each fold once more on the results' mesh, made at the fold's own
-length (:func:`locate_on_mesh`: the fold followed along its branch,
-:func:`~skfem_sheet.engine.fold_on_branch`, to :data:`FOLD_TOL` in L/a, with
-the eigenvalue that crosses zero there confirmed), so that its value does
-not depend on how far the mesh it was first found on was stretched.
-
-Functions
----------
-:func:`fold_lengths`
-    ``L0*`` and ``L1*`` of a sheet's planform at its curvature and material
-    (:class:`FoldLengths`): the curvature-dominated branch followed from a
-    short sheet with increasing L, the gravity-dominated one from a long
-    sheet with decreasing L, their ends located;
-:func:`follow_length`
-    natural continuation in L from a solved sheet, until the branch ends
-    (its fold located) or the range does;
-:func:`follow_curvature`
-    the same in the clamp curvature at fixed L (critical curvatures
-    ``1/R0*`` and ``1/R1*``);
-:func:`s_curve`
-    pseudo-arclength continuation in L through both folds, tracing the
-    unstable middle branch;
-:func:`fold_position`
-    where one length sits against the fold lengths;
-:func:`stability`
-    stable or not, from the inertia of the constrained tangent.
+The length is a continuous parameter: a mesh made at ``L_m`` is stretched
+in x to nearby lengths (:meth:`skfem_sheet.problem.SheetProblem.with_length`)
+and remeshed beyond :data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`, the state
+interpolated (:func:`transfer`).  Every continuation runs on the engine's
+drivers with the sheet as :class:`~skfem_sheet.sheet_shape.SheetShapeProblem`;
+a branch's end is located with the minimally augmented fold system, never
+bracketed by failed solves, and a branch that ends without a fold says why.
+:func:`fold_lengths` locates each fold once more on a mesh made at it
+(:func:`locate_on_mesh`).  Also here: :func:`follow_length`,
+:func:`follow_curvature` (critical curvatures), :func:`s_curve` (through both
+folds), :func:`fold_position` and :func:`stability`.
 """
 from __future__ import annotations
 

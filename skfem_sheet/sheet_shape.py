@@ -31,19 +31,12 @@ lazy refactorisation); what it adds is the shape:
   holds its problem) or as a new problem (:meth:`SheetShapeProblem.remeshed`,
   for fold curves, whose points keep the mesh they were found on).
 
-Why 1.35.  A stretched mesh carries a discretisation error of its own that
-grows with the stretch: at hmax 0.1 (the rectangle at a/R 2.5) the pop-up
-fold L0* located on a mesh made at 0.95 and stretched x1.27 to it is 0.0048
-longer than on meshes made within 5% of it, at x1.15 0.0022 longer, and
-the meshes made within 5% agree to 1.5e-4
-(``benchmarks/results/robustness/fold_curve_remesh_hmax0.1.txt``).  Up to
-1.35 that error stays at about the fold resolution of
-:func:`~skfem_sheet.bistability.fold_lengths` (``tol`` 0.005); each remesh
-costs a mesh, a space, an assembler and a transferred state that must
-converge again, so the limit is not tighter.  The squeeze limit 0.5 lets a
-fold curve in b run from b = 1 down to its cusp (near 0.63 at a/R 2.5) on
-one mesh; the map is admissible (:meth:`SheetShapeProblem.admissible_parameters`)
-down to :data:`MIN_SQUEEZE`, where trial steps may go.
+The limits (1.35, 0.5): a stretched mesh carries a discretisation error of
+its own that grows with the stretch, kept at about the fold resolution of
+:func:`~skfem_sheet.bistability.fold_lengths`, while each remesh costs a
+mesh, a space, an assembler and a state that must converge again
+(``docs/decisions.md``, "The remesh limits"); the map is admissible
+(:meth:`SheetShapeProblem.admissible_parameters`) down to :data:`MIN_SQUEEZE`.
 """
 from __future__ import annotations
 
