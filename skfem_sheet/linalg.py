@@ -40,9 +40,9 @@ zero pressure block.  Back-ends:
     complement.  No factorisation of the whole system: for meshes too big to
     factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`),
     and converges 2-5x faster on a drooped sheet when ``factorize`` gets the
-    state (the near-null space is then that of the deformed sheet).  About
-    4-5x slower than PARDISO on this thin sheet at hmax 0.08 (see
-    ``benchmarks/linear_backends.py``); no inertia.
+    state (the near-null space is then that of the deformed sheet); slower
+    than PARDISO on this thin sheet (``benchmarks/linear_backends.py``); no
+    inertia.
 ``"auto"``
     pardiso when importable, else superlu.
 """
@@ -606,27 +606,16 @@ class PyAMGSolver(_Timed):
       eigenvalues of ``M_p^-1 S`` lie in ``[0.14, 1.5] / mu`` on the
       reference tangent), factorised once in :meth:`attach`.
 
-    What mattered (Newton systems of the L/a = 1.3, a/R = 2.5 rectangle,
-    hmax 0.08; iterations to ``1e-8``): plain smoothed aggregation with
-    rigid-body modes needed 535 CG iterations on ``A`` alone; the bending
-    modes halve that, a strength threshold ``theta = 0.02`` (smaller
-    aggregates) plus energy-minimising prolongation bring it to 27.  On the
-    whole system FGMRES with the triangular preconditioner needs 32-48
-    iterations against 131-186 for MINRES with the block-diagonal one.  On
-    the drooped (gravity-first) branch, reference-configuration modes needed
-    61-155 iterations per solve, deformed-configuration ones 27-39.  The
-    iteration counts hardly change with the mesh (about 35 on average to
-    ``1e-6`` at hmax 0.15, 0.1 and 0.08).  Reusing the prolongators between
-    Newton iterations cut the setup time by two thirds for about 10% more
-    iterations.
+    The choices (bending modes, ``theta``, the triangular preconditioner,
+    deformed-configuration modes, reused prolongators): ``docs/decisions.md``,
+    "The pyamg solver".
 
     Parameters
     ----------
     rtol : float
         Required ``||K x - b|| / ||b||``, checked on the true residual;
-        :class:`LinearSolverError` if not reached.  The default ``1e-6`` gave
-        the same Newton iterations and deflections (to 10 digits) as PARDISO
-        on both load paths at hmax 0.15 and 0.08.
+        :class:`LinearSolverError` if not reached (the default ``1e-6``: the
+        same Newton iterations and deflections as PARDISO).
     maxiter : int
         Most FGMRES iterations per solve (no restarts; memory ``2 maxiter``
         vectors).

@@ -8,34 +8,19 @@ a :class:`Reached` (the end state at full load and its history):
     of the solve;
 :class:`CoarseStart`
     the load path on a coarse mesh, carried to the mesh of the solve by the
-    same rule that decides a snap there: every fold the coarse path located
-    is transferred (state and null vector) and located again on the fine mesh
-    with the minimally augmented test function
-    (:func:`~skfem_sheet.engine.fold.fold_on_branch`, a few factorisations).
-    The fine fold must be of the coarse one's kind, a fold where the load
-    turns back (the branch's solutions below it); one where the load turns up
-    is the other fold of a fold pair the fine mesh has there, where a branch
-    begins, and nothing snaps there.  A fine fold inside its phase: the fine
-    sheet snaps there too (its fold load and deflections are the fine
-    mesh's), once however many coarse folds lead to it (a snap in steps on
-    the coarse mesh is one on the fine mesh: the sheet lands where the last of
-    them landed, and a carried landing that Newton takes back to the fine
-    fold state is no landing).  A coarse fold the fine mesh has not nearby
-    (not located, or located where the load turns up) resumes the fine path
-    from the coarse branch's last point before it.  A fine fold beyond the
-    phase's full load: it does not, and the fine branch before the fold is finished
-    at full load of that phase (predicted from the fold's quadratic normal
-    form, solved by Newton) and the load path goes on from there on the fine
-    mesh.  Without (more) folds the coarse end state is transferred and
-    finished by Newton at full load (where Newton leaves its basin, by the
-    pseudo-transient settle of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
-    that fails after a carried snap, by the load path on the fine mesh from
-    the last snap's landing state), accepted by the load path's step rule
-    (its distance from the carried state at most four times the nominal
-    corrector distance: it stayed on the coarse path's branch) and verified
-    stable; otherwise the load path runs on the fine mesh instead (the
-    record says why).  On a curved outline the two meshes' polygons differ
-    by their chord errors, and the states are carried between them as
+    rule that decides a snap there: every fold the coarse path located is
+    transferred (state and null vector) and located again on the fine mesh
+    (:func:`~skfem_sheet.engine.fold.fold_on_branch`).  A fine fold of the
+    coarse one's kind (the load turns back) inside its phase: the fine sheet
+    snaps there, and lands where the last coarse fold leading to it landed.
+    A coarse fold the fine mesh has not nearby resumes the fine path from the
+    coarse branch's last point before it; a fine fold beyond the phase's full
+    load: the fine branch is finished at full load from the fold's quadratic
+    normal form.  Without (more) folds the coarse end state is transferred
+    and finished by Newton (or by :func:`~skfem_sheet.continuation.settle`
+    where Newton leaves its basin), accepted by the load path's step rule and
+    verified stable; otherwise the load path runs on the fine mesh (the
+    record says why).  States are carried between the meshes as
     :func:`~skfem_sheet.analyses.transfer.transfer` says.
 
 The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
