@@ -12,16 +12,10 @@ With ``half=True`` the mirror is skipped: the mesh is then exactly the
 half-model of :func:`skfem_sheet.solve` (``U_y = 0`` on ``y = 0``).
 
 Nested refinement (``refine=k``): the plan triangulation made at ``hmax`` is
-split ``k`` times into four (edge midpoints; the trapezoid's edges are straight,
-so its geometry stays exact; a curved outline stays the polygon of the base mesh) and extruded in ``layers * 2**k`` layers.  Every edge
-of the base mesh is halved ``k`` times in all three directions, so the meshes
-``refine = 0, 1, 2, ...`` of one base are nested (each one's vertices contain
-the previous one's, and each prism lies in one prism of the coarser mesh) and
-made of similar prisms: a convergence study on them is free of the
-mesh-to-mesh noise of unrelated unstructured meshes.  (The tetrahedra are not
-nested: every prism is cut into three along its own vertex order, and the
-middle child of a triangle is the parent rotated by 180 degrees, so its cut is
-the mirror of the parent's.)
+split ``k`` times into four and extruded in ``layers * 2**k`` layers, so the
+meshes ``refine = 0, 1, 2, ...`` of one base are nested (each prism lies in
+one prism of the coarser mesh; the tetrahedra are not) and made of similar
+prisms: a convergence study free of the noise of unrelated meshes.
 
 Why extruded rather than a free 3D tetrahedral mesh:
 

@@ -57,11 +57,10 @@ class NewtonOptions:
         previous iterate (Magisano, Leonetti & Garcea, CMAME 2017), or the
         exact tangent (the Hessian of the energy) at every iteration.  The
         residual, hence the converged state, is the same; on thin sheets MIP
-        needs about a third fewer iterations (issue 17:
-        ``benchmarks/results/snap_mip_issue17_hmax0.08.txt``).  A converged solve always leaves the exact tangent factorised
-        (at the converged state if the last linearisation was a MIP one: one
-        more factorisation, not a Newton iteration), so that inertia checks
-        and tangent predictors see the Hessian.
+        needs fewer iterations
+        (``benchmarks/results/robustness/snap_mip_issue17_hmax0.08.txt``).  A
+        converged solve always leaves the exact tangent factorised, so that
+        inertia checks and tangent predictors see the Hessian.
     mip_threshold : float
         With ``"mip"``: the MIP matrix is used only after a step longer than
         this (largest nodal displacement, units of a); after shorter steps
@@ -251,17 +250,14 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     the sheet.  The first correction is made with the exact tangent, the
     later ones with ``options.linearization`` (by default the
     mixed-integration-point matrix, whose geometric stiffness carries the
-    stress linearised from the previous iterate: a bending step of a thin
-    sheet no longer leaves the spurious membrane stress of its linearised
-    rotation in the next tangent, which made the corrections alternate
-    large/small).  Full Newton steps, halved only where a trial point has an
-    inverted element (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard
-    natural-monotonicity) line search was tried and rejected: a bending step
-    of a thin sheet leaves a large membrane residual that the *next* full
-    Newton step removes, so those tests cut good steps and doubled the
-    iteration counts.  Globalisation is the job of the load stepping
-    (:mod:`skfem_sheet.continuation`), which cuts the load step when Newton
-    fails here; an iteration whose correction (from the third on) exceeds
+    stress linearised from the previous iterate, so that a bending step of a
+    thin sheet leaves no spurious membrane stress of its linearised rotation
+    in the next tangent).  Full Newton steps, halved only where a trial point
+    has an inverted element (``det F <= 0``) or NaN; no line search (a
+    bending step of a thin sheet leaves a large membrane residual that the
+    *next* full step removes: ``docs/decisions.md``, "No line search").
+    Globalisation is the load stepping's (:mod:`skfem_sheet.continuation`);
+    an iteration whose correction (from the third on) exceeds
     ``max(10 first, 0.1)`` is stopped early as "diverging".
 
     Convergence: ``||r_free|| <= rtol ||f_gravity||`` and the next correction

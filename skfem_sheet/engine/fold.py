@@ -493,12 +493,9 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     parameter component changes sign, and Newton on the fold system from the
     nearer of those two points (else the point between them where it
     vanishes).  Newton's basin for the fold system can be much smaller than
-    for the equilibrium: its first step from a point of the branch goes
-    straight to the fold's state (overshooting it in the parameter by the
-    same distance), off a branch that curves strongly in the state where the
-    fold is flat in the parameter (a thin sheet at hmax 0.2: 1e-4 from the
-    fold in L the state is 0.01 away, and that first step leaves a residual
-    of 4 times the weight).
+    for the equilibrium: its first step goes straight to the fold's state,
+    off a branch that curves strongly in the state where the fold is flat in
+    the parameter (the second example).
 
     Parameters
     ----------
@@ -518,9 +515,8 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
         ``e`` relative to ``max(1, max |u|)``.
     approach : int
         Most arclength corrections of the approach along the branch (0, the
-        default: Newton on the fold system only; :func:`natural` approaches
-        at its last step, with 8).  Off by default because callers with a
-        fallback of their own (a fresh mesh, another section) may prefer it.
+        default: Newton on the fold system only, for callers with a fallback
+        of their own; :func:`natural` approaches at its last step, with 8).
 
     Returns
     -------
@@ -725,18 +721,11 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     to the fold, ``|g^2 / (2 g')| <= ptol``, and the fold is the point that
     step predicts (``u + dc u' + dc^2 u''/2``, ``p + dc g + dc^2 g'/2``: its
     residual and the error of its load are of third order in ``dc``, its
-    load within ``ptol`` of the last equilibrium's).  Every iterate is an equilibrium: unlike Newton on the whole fold
-    system, whose first step goes straight off a strongly curved branch (a
-    thin sheet: a step of 0.005 a leaves a residual of the order of the
-    weight), the iteration never leaves the branch.  It gives up where an
-    iterate's ``g`` keeps its sign without shrinking: Newton then straddles
-    a minimum of ``|g|``, not a zero (an overshoot past the fold changes the
-    sign of ``g``, and the iteration goes on).  From a state carried over
-    from a coarser mesh near its fold, the first section is within a few
-    ``1e-6`` of the fold load: one section solve (three factorisations, the
-    last Newton step's convergence confirmed by a back-substitution,
-    :class:`~skfem_sheet.engine.corrector.ChordTest`) locates it.  The null
-    vector, ``sigma`` and the fold coefficient ``a`` come from that last
+    load within ``ptol`` of the last equilibrium's).  Every iterate is an
+    equilibrium: unlike Newton on the whole fold system, the iteration never
+    leaves a strongly curved branch.  It gives up where an iterate's ``g``
+    keeps its sign without shrinking (a minimum of ``|g|``, not a zero).  The
+    null vector, ``sigma`` and the fold coefficient ``a`` come from the last
     factorisation and the same residual differences.
 
     Parameters
