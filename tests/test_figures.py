@@ -470,9 +470,10 @@ def test_with_a_real_map_point(tmp_path):
     lines = _row_lines(fig.axes[1], 0.0, 2.5)
     drawn = [ln for v in lines.values() for ln in v]
     assert len(drawn) == 1  # a triangle: one curve
-    # two points only: no transition length, so the gravity-dominated curve (followed
-    # down from L/a = 1 on its own stretched mesh) is drawn
-    L, d, _ = foldmap.branch_curve(df.iloc[0], "gravity_dominated")
+    # both points are named curvature-dominated (the transition at the row's end,
+    # foldmap.transition_length), so the curvature-dominated curve is drawn whole
+    assert lines["curvature_dominated"] == drawn
+    L, d, _ = foldmap.branch_curve(df.iloc[0], "curvature_dominated")
     np.testing.assert_allclose(drawn[0].get_ydata(), d)
     again = foldmap.fold_map(pts, table=table, workers=1, progress=False)
     assert again.attrs["fold_map"]["new"] == 0

@@ -147,14 +147,17 @@ def test_cli_bad_input_is_one_line():
 
 
 def _fake_fold_lengths(up_snapped, down_snapped):
-    def branch(snapped, L):
+    def branch(snapped, L, name):
         return SimpleNamespace(lengths=np.array(L), deflections=np.array([0.1, 0.2]),
-                               stable=[True, True], reason="", start_snapped=snapped,
+                               stable=[True, True], names=[name, name], reason="",
+                               start_snapped=snapped,
                                newton_iterations=5, fold=None, fold_deflection=float("nan"))
 
     def fold_lengths(sheet, *, lengths, **kw):
-        return SimpleNamespace(increasing=branch(up_snapped, [lengths[0], lengths[0] + 0.1]),
-                               decreasing=branch(down_snapped, [lengths[1], lengths[1] - 0.1]),
+        return SimpleNamespace(increasing=branch(up_snapped, [lengths[0], lengths[0] + 0.1],
+                                                 "curvature-dominated"),
+                               decreasing=branch(down_snapped, [lengths[1], lengths[1] - 0.1],
+                                                 "gravity-dominated"),
                                popup=None, standout=None, bistable=False,
                                width=float("nan"), message="", wall_time_s=0.1,
                                factorizations=3, trace_factorizations=0)

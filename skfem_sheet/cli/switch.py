@@ -3,7 +3,7 @@
 The switching forces (the tip force, total, positive upward, that snaps the
 aloft state down and the drooped state up), the energy barriers between the
 two states and the saddle between them, from the force-deflection curve in
-the tip force (see :mod:`skfem_sheet.switch`).  The sheet is given in its
+the tip force (see the module skfem_sheet.switch).  The sheet is given in its
 dimensionless parameters or in SI units (``--si``, then the forces are also
 printed in mN and the barriers in microjoules).  ``--json`` writes the
 summary (keys ``force_down``, ``force_up``, ``barrier_down``, ``barrier_up``,

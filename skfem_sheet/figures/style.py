@@ -184,8 +184,11 @@ def draw_row(ax, row, colour, *, x=None, markers=True, jumps=True, gap=0.06, lab
     elif not len(Lc) or t is None:
         seg(Lg, dg, "gravity_dominated", label)
     else:
-        below = Lc < t
-        above = Lg >= t
+        # t at the curvature-dominated branch's last point: its points are all
+        # curvature-dominated (foldmap.transition_length), drawn whole
+        whole = t >= Lc[-1]
+        below = np.ones(len(Lc), bool) if whole else Lc < t
+        above = np.zeros(len(Lg), bool) if whole else Lg >= t
         first = seg(Lc[below], dc[below], "curvature_dominated", label)
         # the dashed part starts where the solid one ends: one curve
         Lb, db = Lg[above], dg[above]

@@ -48,8 +48,9 @@ FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correc
 #: sheet), not the stress of an equilibrium on the finer mesh.  One Newton
 #: step of the equilibrium removes that stress to second order in the
 #: carried state's error, and the fold system converges from there as from
-#: the converged equilibrium (the record:
-#: ``benchmarks/results/speed/fold_curves_issue59.txt``).
+#: the converged equilibrium (the records:
+#: ``benchmarks/results/speed/speed_profile_curve_aR3.5_3155286.txt`` before,
+#: ``benchmarks/results/speed/speed_profile_curve_aR3.5_8e95221.txt`` after).
 SETTLE_STEP = Tolerances(rtol=np.inf, utol=FINE_TOLERANCES.max_correction, max_iterations=1,
                          max_correction=FINE_TOLERANCES.max_correction)
 

@@ -7,12 +7,13 @@ __all__ = ["SeriesCollector", "Snapshot", "add_frame"]
 
 
 class Snapshot:
-    """What :func:`skfem_sheet.io.state_fields` reads of a problem, for one
-    state: a series frame then holds vertex fields, not the mapped problem's
-    basis data."""
+    """What :func:`skfem_sheet.io.state_fields` and :func:`skfem_sheet.io.in_units`
+    read of a problem, for one state: a series frame then holds vertex fields
+    (and the sheet, for its SI scales), not the mapped problem's basis data."""
 
     def __init__(self, problem, w):
-        self.sheet_mesh, self.length = problem.sheet_mesh, problem.length
+        self.sheet, self.sheet_mesh, self.length = (problem.sheet, problem.sheet_mesh,
+                                                    problem.length)
         U, p = problem.split(w)
         self._split = (np.array(U), np.array(p))
         self._pressure = np.array(problem.paper_pressure(w))
