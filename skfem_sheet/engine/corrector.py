@@ -53,8 +53,8 @@ class Tolerances:
         ``10 max(first, utol)`` (``None``, the default) or than
         ``max(10 first, divergence_floor)`` (a number) stops the iteration as
         "diverging".  A floor suits problems whose corrections are
-        non-monotone for a few iterations (a bending step of a thin sheet
-        leaves a membrane residual for the next one).
+        non-monotone for a few iterations (a bending step of a thin
+        structure leaves a membrane residual for the next one).
     pair_contraction : bool
         From the third linearisation on, a correction larger than the one two
         linearisations before (and than ``utol``) stops the iteration as "not
@@ -62,8 +62,8 @@ class Tolerances:
         Nonlinear Problems*, Springer 2004, sec. 5.1: a contraction of one or
         more says the iterate left Newton's basin) on pairs of corrections,
         for systems whose consecutive corrections alternate in size while
-        they converge (a thin sheet's bending correction leaves a membrane
-        residual for the next one).  Off by default.
+        they converge (a thin structure's bending correction leaves a
+        membrane residual for the next one).  Off by default.
     error_estimate : bool
         Also stop on Newton's own error estimate (Deuflhard, *Newton Methods
         for Nonlinear Problems*, Springer 2004, ch. 2): from the second
@@ -74,9 +74,7 @@ class Tolerances:
         linearly contracting iteration, pessimistic for Newton's quadratic
         one); when that is at most ``utol``, the corrected iterate is
         returned, whatever the residual at the iterate (which, one
-        correction away from the solution of a stiff system, is still large:
-        a correction of 1e-5 a of a thin sheet leaves residuals of the order
-        of the weight).  Saves the linearisation that would only confirm
+        correction away from the solution of a stiff system, is still large).  Saves the linearisation that would only confirm
         convergence.  Off by default.
     """
 
@@ -195,8 +193,7 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
     """Newton's method on a (possibly extended) system: the one loop.
 
     Every Newton iteration of the package runs here: the drivers of the
-    engine, and (through :func:`skfem_sheet.newton.newton`) the sheet's load
-    paths and continuation in L.
+    engine, and the callers' Newton solves built on it.
 
     Parameters
     ----------
@@ -351,8 +348,9 @@ class ChordTest:
 
     The simplified correction estimates the error only if the factorised
     matrix is close to the one at the iterate: after the first Newton step
-    from a prediction it is the matrix at the prediction, and on a thin sheet
-    (whose stiffness changes with its membrane stress over a small move) the
+    from a prediction it is the matrix at the prediction, and where the
+    stiffness changes strongly over a small move (a thin structure's membrane
+    stress) the
     estimate can then be far too small (``docs/decisions.md``, "The chord
     test waits for a second linearisation").  With
     ``start`` (the prediction), the test therefore waits for the second

@@ -208,7 +208,7 @@ class FoldSystem:
         root of ``fd_state_step`` (in the correction norm), as for the second
         difference of :func:`fold_on_branch`: its truncation error
         ``O(e^2)`` and round-off ``O(eps / e^2)`` balance there.  A residual
-        costs a fraction of a tangent assembly (about a seventh on the sheet)."""
+        costs a fraction of a tangent assembly."""
         c = self.c
         one_sided = bool(getattr(c, "fd_one_sided", False))
         e = (c.fd_state_step ** 0.5 * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
@@ -847,8 +847,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             (ca, ga, pa), (cb, gb, pb) = bracket
             if not min(ca, cb) < c_here + dc < max(ca, cb):
                 # Newton would leave the bracket (past an inflection of g,
-                # towards another fold: from the curvature-dominated branch of a
-                # sheet, onto the middle branch and its pop-up fold): the secant
+                # towards another fold, e.g. onto a middle branch and its
+                # other fold): the secant
                 # through the bracket's ends instead, which stays inside it,
                 # predicted from the nearer end
                 c_new = (ca * gb - cb * ga) / (gb - ga)

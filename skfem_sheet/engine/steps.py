@@ -15,7 +15,7 @@ not shrink and is cut until the step is below ``minimum`` -- and an accepted
 one sets the next step to ``h (delta / distance)^(1/q)`` (``q`` the order of
 the predictor's error, 2 for a linear predictor, 3 for a quadratic one),
 between half and twice ``h``.  (Allgower & Georg also weigh Newton's
-contraction; on a thin sheet a bending step leaves a membrane residual that
+contraction; on a thin structure a bending step leaves a membrane residual that
 the next correction removes, so the second correction is often as large as
 the first on a perfectly smooth branch, and the contraction says nothing
 about the step.)  The corrector's first Newton correction is the
