@@ -1,26 +1,14 @@
 """Bistability map: pop-up and standout lengths over a grid of (tip width, curvature).
 
 For every point ``(b/a, a/R)`` of a grid, :func:`~skfem_sheet.bistability.fold_lengths`
-follows the curvature-dominated branch from a short sheet with increasing L
-and the gravity-dominated one from a long sheet with decreasing L, and locates
-their folds, the standout length ``L1*`` and the pop-up length ``L0*``
-(paper, Figs. 6 and 7), with the minimally augmented system on the point's
-own mesh (to :data:`~skfem_sheet.bistability.FOLD_TOL`; a row that finds no
-fold says why in ``curvature_dominated_reason`` /
-``gravity_dominated_reason``).  :func:`fold_map` runs the points in parallel (local
-processes, or a Dask cluster) into one tidy table, one row per point, with
-both branch curves ``d(L)`` stored in it; it runs on the same runner as
-:func:`skfem_sheet.studies.sweep.run_sweep` (:mod:`skfem_sheet.studies.runner`:
-journal, atomic table, executors), so an interrupted map resumes where it
-stopped and a finished one computes nothing again.
-
-From the table:
-
-- :func:`critical_tip_width`: for each curvature, the shape factor
-  ``(b/a)*`` below which no length is bistable (where ``L0* = L1*``);
-- :func:`modes`: which modes (curvature-dominated, gravity-dominated) exist
-  at given lengths -- the markers of Fig. 6;
-- :func:`branch_curve`: the branch data ``(L, d, stable)`` of a row.
+locates the standout length ``L1*`` and the pop-up length ``L0*`` (paper,
+Figs. 6 and 7) on the point's own mesh; a row that finds no fold says why
+(``curvature_dominated_reason`` / ``gravity_dominated_reason``).
+:func:`fold_map` runs the points in parallel into one resumable table with
+both branch curves ``d(L)`` (:mod:`skfem_sheet.studies.runner`).  From the
+table: :func:`critical_tip_width` (the shape factor ``(b/a)*`` below which no
+length is bistable), :func:`modes` (which modes exist at given lengths, the
+markers of Fig. 6), :func:`branch_curve` (a row's ``(L, d, stable)``).
 
 Command line (:mod:`skfem_sheet.cli.fold_map`)::
 

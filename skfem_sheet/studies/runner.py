@@ -1,39 +1,24 @@
 """The study runner: many independent points as one resumable, parallel job.
 
 A *study* (the sweep, :mod:`skfem_sheet.studies.sweep`; the fold map,
-:mod:`skfem_sheet.studies.foldmap`) is a list of points (dicts of input
-parameters), each computed on its own into one *record* (a flat dict: the
-parameters and the outputs).  The runner does everything else, the same way
-for every study:
+:mod:`skfem_sheet.studies.foldmap`) is a list of points, each computed on its
+own into one flat *record*.  The runner does everything else, the same way
+for every study: the points' **keys** (:func:`normalize_params`,
+:func:`hash_key`: numbers rounded to 10 significant digits); the **journal**
+beside the table (:func:`journal_path`, :class:`Journal`: one JSON line per
+finished record, one ``os.write`` on an ``O_APPEND`` descriptor, then
+``os.fsync``; :func:`read_journal` ignores a line cut short and keeps the
+last of equal keys); the **table**, rebuilt from the journal and replaced
+atomically (:func:`write_table`); **resume** (a journalled key is not
+computed again, unless ``retry_failed`` and not converged); the
+**executors** (this process, ``spawn``-ed local processes, :func:`pool`, or
+a Dask cluster, :func:`dask`); **Ctrl-C** (:class:`StudyInterrupted`: the
+points in flight abandoned within about a second, the table written); and
+**failures** (:func:`record_failure`, :func:`finish_record`).
 
-- **keys**: a point is identified by a hash of its normalised parameters
-  (:func:`normalize_params`, :func:`hash_key`); numbers are rounded to 10
-  significant digits, so float noise does not make a new point;
-- **journal**: every finished record is appended at once to a journal beside
-  the table, ``<table>.journal.jsonl`` (:func:`journal_path`): one JSON line,
-  written by the parent process with a single ``os.write`` on an ``O_APPEND``
-  descriptor, then ``os.fsync`` (:class:`Journal`).  A line cut short by a
-  crash is ignored when reading, and lines with the same key are collapsed,
-  the last wins (:func:`read_journal`);
-- **table**: rebuilt from the journal and replaced atomically
-  (:func:`skfem_sheet.io.atomic_write`) every 30 s and at the end, so it is
-  never half written (:func:`write_table`; CSV or Parquet by suffix);
-- **resume**: a point whose key is already in the journal is not computed
-  again (unless ``retry_failed`` and its record is not converged);
-- **executors**: this process (``workers=1``), ``spawn``-ed local processes
-  (:func:`pool`; a point that kills its worker is recorded as failed and the
-  others go on) or a Dask cluster (:func:`dask`);
-- **Ctrl-C**: the points in flight are abandoned within about a second (their
-  workers killed), the table is written, and :class:`StudyInterrupted` (a
-  ``KeyboardInterrupt``) says how many points are finished and kept, and where;
-- **failures**: an exception while computing a point is put into its record
-  (:func:`record_failure`); every record is stamped when it finishes
-  (:func:`finish_record`: time, host, process) and made JSON-ready.
-
-A study describes its kind of point with a :class:`Job` (usually with an
-:class:`EachPoint` task and a :func:`failed_record` for points whose task
-died), checks its arguments (:func:`study_points`, :func:`check_run`) and calls
-:func:`execute`.
+A study describes its kind of point with a :class:`Job` (usually an
+:class:`EachPoint` task and a :func:`failed_record`), checks its arguments
+(:func:`study_points`, :func:`check_run`) and calls :func:`execute`.
 """
 from __future__ import annotations
 
