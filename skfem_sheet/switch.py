@@ -173,9 +173,8 @@ class ForceCurve:
         ``"one S"`` (two folds, one negative eigenvalue between them and none
         outside), or what it is instead (the notes say more).
     notes : tuple of str
-        What a reader must know: more folds than an S has, an inertia that
-        changes without a turn in F (a branch point), a fold not confirmed
-        by the inertia, a tip that turns (``w_tip`` not monotone).
+        More folds than an S has, an inertia change without a turn (a branch
+        point), a fold not confirmed by the inertia, a tip that turns.
     factorizations : int
     wall_time_s : float
     problem : SheetProblem
@@ -412,16 +411,13 @@ def force_curve(problem, w, curvature: float, *, gravity: float = 1.0, direction
 
     Pseudo-arclength continuation in F (:func:`skfem_sheet.engine.arclength`)
     from ``w`` in ``direction``, in the plane of the tip's vertical
-    displacement and the parameter ``F / F_u`` (``F_u`` the force that moves
-    the start's tip by :data:`FORCE_UNIT` a), with the steps controlled by
-    the curve's bending there (``turn``), until F comes back to 0 (a crossing: the equilibrium
-    there solved at F = 0 exactly), then on from that state the same way,
-    until F comes back to 0 again; each segment ends too where ``|F|``
-    exceeds ``max_force`` times the sheet's weight.  Between two points
-    whose tangents turn in F the fold is located on the branch
+    displacement and ``F / F_u`` (``F_u`` moves the start's tip by
+    :data:`FORCE_UNIT` a), steps controlled by the curve's bending
+    (``turn``), to the first crossing of F = 0 (solved there exactly) and on
+    to the second; a segment also ends where ``|F|`` exceeds ``max_force``
+    weights.  Folds are located on the branch
     (:func:`~skfem_sheet.engine.fold.fold_on_branch`, to
-    :data:`FOLD_TOLERANCE`).  Every point carries the inertia of its
-    factorised tangent and the slope ``dF/dw_tip`` (one back-substitution).
+    :data:`FOLD_TOLERANCE`); every point carries its inertia and ``dF/dw_tip``.
 
     Parameters
     ----------
@@ -636,9 +632,8 @@ class Switching:
     curve : ForceCurve
         The force-deflection curve (on its own mesh, ``curve.hmax``).
     work_down, work_up : float
-        ``int F dw_tip`` along the curve from the aloft state to the saddle,
-        and from the drooped state to the saddle: the barriers on the curve's
-        mesh by the work identity.
+        ``int F dw_tip`` from the aloft (drooped) state to the saddle: the
+        barriers on the curve's mesh by the work identity.
     curve_barrier_down, curve_barrier_up : float
         The barriers on the curve's mesh, from its states' energies.
     si : SIScale or None
@@ -822,15 +817,12 @@ def switching(sheet: Sheet, hmax: float = 0.03, *, curve_hmax: float | None = No
               progress: bool = False, chain: BuildChain | None = None) -> Switching:
     """The switching forces and energy barriers of one sheet.
 
-    The sheet is solved curvature-first (:func:`~skfem_sheet.solve.solve`:
-    the aloft state where it exists), then the force-deflection curve is
-    traced from that state (:func:`force_curve`, pushing down; pulling up if
-    the solve ended drooped) on the mesh ``curve_hmax``; where that is
-    coarser than ``hmax``, its folds, its saddle and its other state at F = 0
-    are carried to the mesh ``hmax`` and located there again (the fold on
-    the branch from the carried fold state and null vector, the states by
-    Newton at F = 0), and where that fails, or the coarse curve is not one
-    S, the curve is traced on ``hmax``.
+    The sheet is solved curvature-first, the force-deflection curve traced
+    from that state (:func:`force_curve`, pushing down; pulling up if it
+    ended drooped) on ``curve_hmax``; where that is coarser than ``hmax`` its
+    folds, saddle and other state at F = 0 are located again on ``hmax``
+    (where that fails, or the coarse curve is not one S, the curve is traced
+    on ``hmax``).
 
     Parameters
     ----------
@@ -1157,11 +1149,9 @@ def apply_tip_force(result: Result, force: float, *, solver: str = "auto",
     """The force-controlled solve: ramp the tip force from 0 to ``force`` on
     the end state of a solve.
 
-    The load ramp of the load paths (:func:`skfem_sheet.engine.ramp`) in F
-    at full load; where the branch turns in F (a fold, located) the sheet
-    snaps as on a load path (:func:`~skfem_sheet.continuation.snap_from_fold`:
-    off the fold downhill along its null vector, settled onto the stable
-    state at the fold's force) and the ramp goes on from there.
+    The load paths' ramp (:func:`skfem_sheet.engine.ramp`) in F at full
+    load; at a fold the sheet snaps as on a load path
+    (:func:`~skfem_sheet.continuation.snap_from_fold`) and the ramp goes on.
 
     Parameters
     ----------
