@@ -26,10 +26,7 @@ figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one F
 One figure more, not in the paper: ``switching``, the switching forces and energy barriers
 of the rectangle across its bistable window (:mod:`skfem_sheet.switch`).
 
-The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
-solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and
-``figS4-<quality>/*.npz``; their mid-surface fields are
-:mod:`skfem_sheet.analyses.midsurface`'s.
+The supplement's figures keep their solves in ``figS<n>-<quality>/``.
 
 Data: every finite-element curve of fig2, fig4-fig7 comes from one fold-map
 table per quality, ``data_dir/foldmap-<quality>.csv``
@@ -41,15 +38,11 @@ Quality: ``"quick"`` is the fold map at hmax 0.1 (:data:`QUICK_GRID`);
 ``"paper"`` hmax 0.03 and finer grids (:data:`PAPER_GRID`).  Quick figures
 carry a footnote saying so.
 
-Drawing convention (fig2, fig4, fig5): solid lines and filled markers are
-the curvature-dominated mode, dashed lines and open markers the
-gravity-dominated one, only stable points (stability unknown counts as
-stable).  Where a row is bistable both branches are drawn, each up to its
-fold, with a dotted arrow at each fold for the jump to the other branch;
-elsewhere the two branches coincide and one curve is drawn, solid below the
-transition length and dashed above (:func:`skfem_sheet.studies.foldmap.modes`; at
-a/R = 0 there is no curvature-dominated mode).  Map points that failed are
-left out and counted in the legend.
+Drawing convention (fig2, fig4, fig5): solid lines and filled markers the
+curvature-dominated mode, dashed lines and open markers the gravity-dominated
+one, stable points only; a bistable row has both branches, each to its fold
+with a dotted arrow for the jump; elsewhere one curve, solid below the
+transition length and dashed above (:func:`skfem_sheet.studies.foldmap.modes`).
 
 Modules: one per figure (``figureN``: its points, data and drawing; named so
 that ``skfem_sheet.figures.figN`` stays the function); ``common``, ``data``
