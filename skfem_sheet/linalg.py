@@ -15,34 +15,21 @@ The Taylor-Hood tangent ``[[A, B^T], [B, 0]]`` is symmetric indefinite with a
 zero pressure block.  Back-ends:
 
 ``"pardiso"``
-    Intel MKL PARDISO through pypardiso's low-level handle, in symmetric
-    indefinite mode (matrix type -2, upper triangle, Bunch-Kaufman pivoting with
-    weighted matching and scaling).  The symbolic analysis (METIS ordering) is
-    done once and reused while the sparsity pattern stays the same.  The
-    number of perturbed pivots is read after every factorisation; when there
-    are any, the inertia is reported unknown.  Reproducible by default (the
-    same bits in every process and for any thread count; ``reproducible=False``
-    for MKL's free-running threads).  Needs the optional ``fast`` extra
-    (``pip install .[fast]``).
+    Intel MKL PARDISO through pypardiso's low-level handle, symmetric
+    indefinite (matrix type -2, Bunch-Kaufman pivoting with weighted matching
+    and scaling), the symbolic analysis reused while the pattern stays; the
+    inertia is reported unknown where pivots were perturbed; reproducible by
+    default (:class:`PardisoSolver`).  Needs the ``fast`` extra.
 ``"superlu"``
-    scipy's SuperLU configured for this structure: a symmetric minimum-degree
-    ordering on ``A + A^T`` (computed once per pattern, adjusted so that no
-    pressure row is eliminated before all its neighbours), diagonal pivoting,
-    symmetric mode.  scipy's default (COLAMD, partial pivoting) does not
-    finish on these matrices.
+    scipy's SuperLU with a symmetric minimum-degree ordering on ``A + A^T``
+    (no pressure row eliminated before all its neighbours), diagonal
+    pivoting, symmetric mode (scipy's default does not finish on these
+    matrices).
 ``"pyamg"``
-    Flexible GMRES, right-preconditioned by the block upper-triangular
-    ``[[A~, B^T], [0, -M_p / mu]]``, where ``A~^-1`` is one V-cycle of a
-    smoothed-aggregation AMG hierarchy of the displacement block (node-wise
-    3x3 blocks, the six rigid-body modes plus three plate-bending modes as
-    near-null space, energy-minimising prolongation) and ``M_p / mu``, the
-    pressure mass matrix over the shear modulus, stands in for the Schur
-    complement.  No factorisation of the whole system: for meshes too big to
-    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`),
-    and converges 2-5x faster on a drooped sheet when ``factorize`` gets the
-    state (the near-null space is then that of the deformed sheet); slower
-    than PARDISO on this thin sheet (``benchmarks/linear_backends.py``); no
-    inertia.
+    FGMRES with a block-triangular preconditioner on a smoothed-aggregation
+    hierarchy of the displacement block (:class:`PyAMGSolver`): no
+    factorisation, for meshes too big to factor; needs
+    :meth:`PyAMGSolver.attach` and, on a deformed sheet, the state; no inertia.
 ``"auto"``
     pardiso when importable, else superlu.
 """

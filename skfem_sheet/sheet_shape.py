@@ -8,28 +8,20 @@ and the paths of :mod:`skfem_sheet.paths` run on it.  It is a
 :class:`~skfem_sheet.sheet_engine.SheetEngineProblem` (state, norms, the one
 lazy refactorisation); what it adds is the shape:
 
-- **One mesh, carried to nearby shapes.**  The sheet is meshed once, at
-  ``(L_m, b_m)``, and the problem at ``(L, b)`` is that mesh carried there,
-  with the same tetrahedra, dof numbering and sparsity pattern, so that a
-  nodal state at one shape is a valid state at the next.  Two ways
-  (``geometry``): ``"stretch"`` (the length only: ``x' = x L / L_m``,
-  :meth:`~skfem_sheet.problem.SheetProblem.with_length`, exact and cheap;
-  ``dR/dL`` a central difference on the stretch, ``dR/d(a/R)`` exact) and
-  ``"map"`` (length and tip width: also ``y' = y p_b(xi) / p_{b_m}(xi)``
-  with ``xi = x / L`` and the width profile ``p_b(xi) = 1 + (b - 1) xi``,
-  which takes the trapezoid onto the trapezoid exactly, element by element,
-  :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.mapped`; every
-  ``dR/dp_i`` a forward difference from the residual at ``p``, as the fold
-  system wants them, ``fd_one_sided``).  The two agree to round-off where
-  both apply; each caller keeps the one its numbers were recorded with.
-- **One remesh rule.**  Beyond a stretch of :data:`REMESH_STRETCH` in x
-  (or its inverse) or a tip squeezed below :data:`REMESH_SQUEEZE` of the
-  mesh's (or widened beyond its inverse), the sheet is meshed afresh at the
-  current shape and the state interpolated onto the new mesh
-  (:func:`~skfem_sheet.analyses.transfer.transfer`, memory linear in the
-  mesh): in place (:meth:`SheetShapeProblem.remesh`, for a continuation that
-  holds its problem) or as a new problem (:meth:`SheetShapeProblem.remeshed`,
-  for fold curves, whose points keep the mesh they were found on).
+- **One mesh, carried to nearby shapes**, with the same tetrahedra, dof
+  numbering and sparsity pattern, so that a nodal state at one shape is
+  valid at the next: ``geometry="stretch"`` (the length only,
+  :meth:`~skfem_sheet.problem.SheetProblem.with_length`; ``dR/dL`` a central
+  difference) or ``"map"`` (length and tip width, ``y' = y p_b(xi) /
+  p_{b_m}(xi)``, :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.mapped`;
+  forward differences, ``fd_one_sided``).  The two agree to round-off where
+  both apply.
+- **One remesh rule**: beyond a stretch of :data:`REMESH_STRETCH` in x (or
+  its inverse) or a tip squeezed below :data:`REMESH_SQUEEZE` (or widened
+  beyond its inverse), the sheet is meshed afresh at the current shape and
+  the state transferred (:func:`~skfem_sheet.analyses.transfer.transfer`), in
+  place (:meth:`SheetShapeProblem.remesh`) or as a new problem
+  (:meth:`SheetShapeProblem.remeshed`).
 
 The limits (1.35, 0.5): a stretched mesh carries a discretisation error of
 its own that grows with the stretch, kept at about the fold resolution of
