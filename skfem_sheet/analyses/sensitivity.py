@@ -152,10 +152,8 @@ def mapped_problem(problem: SheetProblem, *, length=None, tip_width=None,
     The vertices move (``x' = x L'/L``, ``y' = y p_b'(x/L) / p_b(x/L)`` with
     ``p_b(xi) = 1 + (b - 1) xi``, ``z' = z h'/h``); the tetrahedra, dof
     numbering, dof sets and the assembler are kept, so a state of ``problem``
-    is a state of the mapped one.  The space is built afresh on the mapped
-    mesh (:meth:`TaylorHoodSpace.build`, uncached), so that its bases
-    evaluate fields at points of the mapped sheet (the tip angle).  The
-    map keeps the clamp ``x = 0`` and the symmetry plane ``y = 0``.
+    is a state of the mapped one; the space is built afresh on the mapped
+    mesh (its bases evaluate the tip angle there).
 
     Examples
     --------
@@ -211,13 +209,9 @@ def scaled_problem(problem: SheetProblem, *, length=None, thickness=None) -> She
 
     The maps are diagonal and affine (``x L'/L``, ``z h'/h``), so, as for
     :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.stretched`, only the
-    gradients' x and z components, the volume weights, the node coordinates
-    and the integrals change; no basis is built, and the space keeps the mesh
-    it was built on (``problem.length / mesh.length`` is the x stretch, as
-    the observables expect; a z scale leaves the mid-plane and every
-    x-derivative there as they are, so the tip angle is that of the scaled
-    sheet too).  The same as :func:`mapped_problem` for these two maps, at a
-    fraction of the cost.
+    gradients, volume weights, node coordinates and integrals change and no
+    basis is built: :func:`mapped_problem` for these two maps, at a fraction
+    of the cost.
 
     Examples
     --------
@@ -585,9 +579,8 @@ def state_sensitivities(problem: SheetProblem, w, gravity: float, parameters, *,
         Names from :data:`PARAMETERS`.
     linear : linear solver, optional
         A back-end holding a factorisation of the tangent near ``w`` (the
-        solve's); it is used with iterative refinement against the tangent at
-        ``w``, and refactorised at ``w`` if that does not contract.  Default:
-        factorise the tangent at ``w`` (one factorisation).
+        solve's), used with iterative refinement (see the module).  Default:
+        factorise the tangent at ``w``.
     outputs : iterable of str
         Names from :data:`OUTPUTS`.
 
