@@ -351,16 +351,11 @@ def branch_curve(row, which: str = "curvature_dominated"):
 def transition_length(row) -> float | None:
     """Where the curvature-dominated mode gives way to the gravity-dominated one.
 
-    For a bistable row there are two (``L0*`` and ``L1*``) and this returns
-    None.  Otherwise: the single fold found, if there is one; else (the
-    transition is continuous) the middle of the interval of the
-    curvature-dominated branch where the names of its points (as ``solve``
-    names a state, :mod:`skfem_sheet.analyses.mode`) change from
-    curvature- to gravity-dominated, so that the figures mark the modes as
-    the solver names them; for a row without names (tables from before they
-    were stored) the middle of the steepest interval of ``d(L)``; None for a
-    flat curve (``a/R = 0``, where there is no curvature-dominated mode to
-    lose).
+    None for a bistable row (two: ``L0*`` and ``L1*``).  Otherwise the single
+    fold found; else the middle of the interval where the names of the
+    curvature-dominated branch's points (:mod:`skfem_sheet.analyses.mode`)
+    change; for a row without names the middle of the steepest interval of
+    ``d(L)``; None for a flat clamp.
 
     Examples
     --------

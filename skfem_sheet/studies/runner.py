@@ -315,9 +315,8 @@ def table_records(done, order) -> list:
 class StudyInterrupted(KeyboardInterrupt):
     """Ctrl-C during a study: what was kept, and where.
 
-    A ``KeyboardInterrupt`` (code that catches that catches this); its text
-    says how many of the study's points are finished and kept, in which table,
-    and how to go on.
+    A ``KeyboardInterrupt``; its text says how many of the study's points are
+    finished and kept, in which table, and how to go on.
 
     Attributes
     ----------
@@ -390,14 +389,10 @@ class EachPoint:
     """A study's chunk task: its points computed in sequence, one record each, in order.
 
     ``EachPoint(module, name)(points)`` is ``[run(p) for p in points]`` with
-    ``run = module.name``, a module-level function ``run(point) -> record``
-    that catches the exceptions of its computation (:func:`record_failure`).
-    With ``shared``, ``[run(p, context) for p in points]`` with ``context =
-    module.shared()`` made once for the chunk (e.g. the build chain that the
-    points of one mesh share; it lives as long as the chunk's task).
-    The functions are looked up by name when the task runs: the task pickles as
-    strings (a spawned worker imports the module), and a function replaced
-    on its module (a test's stand-in) is the one called.
+    ``run = module.name`` (catching its computation's exceptions,
+    :func:`record_failure`); with ``shared``, ``run(p, context)`` with
+    ``context = module.shared()`` made once for the chunk.  The functions are
+    looked up by name when the task runs, so the task pickles as strings.
 
     Attributes
     ----------
@@ -706,13 +701,10 @@ def pool(chunks, n_workers, task, failed):
 def beside(task, *args):
     """Run ``task(*args)`` on one spawned process while the caller goes on.
 
-    Yields the task's :class:`concurrent.futures.Future`.  The process is a
-    worker of :func:`pool`'s kind (it ignores Ctrl-C, which is the caller's
-    business, exits if the caller dies, one BLAS/MKL thread unless
-    ``OMP_NUM_THREADS``/... are set).  Leaving the block normally waits for
-    the task; leaving it by an exception (Ctrl-C included) kills the process
-    and its task's work is lost.  ``task`` must be importable (a module-level
-    function), as for :func:`pool`.
+    Yields the task's :class:`concurrent.futures.Future`, on a worker of
+    :func:`pool`'s kind (one BLAS thread unless set).  Leaving the block
+    normally waits for the task; leaving it by an exception (Ctrl-C
+    included) kills the process.  ``task`` must be a module-level function.
 
     Examples
     --------
@@ -766,13 +758,10 @@ class Workers:
     """Where the tasks of a batch run: the Dask cluster of ``scheduler``, or
     ``local`` processes of this machine.
 
-    The value a caller that forwards a number of workers (the figures, their
-    ``workers`` argument) forwards instead, so that the studies under it
-    (:func:`execute`: the fold map, the fold curves) and :func:`on_executor`
-    run their tasks on the cluster, journalled here as on local processes.
-    Work that stays on this machine (what writes files of its own, or is
-    cheap) takes it as a number: ``int(workers)`` is ``local``, or one per
-    CPU of this machine if ``local`` is None.
+    Passed where a number of workers is (the figures' ``workers``), so that
+    the studies under it (:func:`execute`, :func:`on_executor`) run their
+    tasks on the cluster, journalled here; work that stays on this machine
+    takes ``int(workers)``: ``local``, or one per CPU if None.
 
     Attributes
     ----------
