@@ -323,13 +323,11 @@ class SheetForceProblem(SheetEngineProblem):
     """One discrete sheet at fixed loads as an engine problem in its tip
     force, ``p = (F / force_unit,)``.
 
-    The tip force ``F`` (total, positive upward, units of ``rho g a^3``) is
-    a dead load spread uniformly over the tip face ``x = L``
+    The tip force ``F`` (total, positive upward, units of ``rho g a^3``) is a
+    dead load over the tip face
     (:meth:`~skfem_sheet.problem.SheetProblem.with_tip_force`): the residual
-    is ``R(u) - F f`` with the face's traction vector ``f`` at unit force, so
-    that ``dR/dF = -f`` exactly and the tangent does not depend on ``F``.
-    States, norms and the arclength inner product are those of every sheet
-    adapter (:class:`SheetEngineProblem`).
+    is ``R(u) - F f``, so ``dR/dF = -f`` exactly and the tangent does not
+    depend on ``F``.
 
     Parameters
     ----------
@@ -343,18 +341,13 @@ class SheetForceProblem(SheetEngineProblem):
     stats : ~skfem_sheet.newton.Stats, optional
     force_unit : float
         The unit of the parameter (``rho g a^3``; default 1): ``p[0] = F /
-        force_unit`` (an attribute: it may be changed between continuations).  The arclength norm weighs the parameter against the
-        state's displacements (in a) by it: a unit of the order of the
-        forces that move the sheet by a fraction of a spreads a curve's
-        points evenly between its stiff and its soft parts.
+        force_unit`` (an attribute, changeable between continuations); the
+        arclength norm weighs the parameter against the displacements by it.
     tip_norm : bool
-        The arclength inner product on the vertical displacement of the
-        tip's centre alone (default False: with the mean square of all
-        displacements, :meth:`SheetEngineProblem.dual`): arclength steps
-        along the plotted curve of ``p`` against the tip, and a step
-        control by the bending (the tangent's turn,
-        :func:`~skfem_sheet.engine.arclength`'s ``turn``) that follows that
-        curve's bends, not the turning of the sheet's mode shapes.
+        The arclength inner product on the tip centre's vertical displacement
+        alone (default False: :meth:`SheetEngineProblem.dual`), so that steps
+        and the bending control follow the plotted curve of ``p`` against
+        the tip.
 
     Examples
     --------
