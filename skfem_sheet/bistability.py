@@ -1,61 +1,22 @@
 """Bistability: continuation in the sheet length, fold lengths located, the S-curve.
 
-In the bistable range a sheet has two stable equilibria (paper, Figs. 2, 4, 6
-and 7): the curvature-dominated (aloft) one, which exists up to the
-*standout length* ``L1*``, and the gravity-dominated (drooped) one, which
-exists down to the *pop-up length* ``L0*``.  The sheet is bistable for
-``L0* < L < L1*``; between the two stable branches lies an unstable one, and
-the three form an S-shaped curve of ``d`` against ``L`` whose turning points
-(folds) are ``L0*`` and ``L1*``.  Both are properties of the *family* of
-lengths of one planform at one clamp curvature and material: the question
-:func:`fold_lengths` answers for a :class:`~skfem_sheet.params.Sheet` (its
-planform, curvature, thickness and modulus; its own length is placed
-against them).
+In the bistable range ``L0* < L < L1*`` a sheet has two stable equilibria
+(paper, Figs. 2, 4, 6 and 7): the curvature-dominated one, which exists up to
+the *standout length* ``L1*``, and the gravity-dominated one, down to the
+*pop-up length* ``L0*``; with the unstable branch between them they form an
+S-shaped curve ``d(L)`` whose folds are ``L0*`` and ``L1*``.
 
-How the length is made a continuous parameter: a problem built on a mesh of
-length ``L_m`` is stretched in x to any nearby length
-(:meth:`skfem_sheet.problem.SheetProblem.with_length`), so one mesh topology
-carries the nodal solution from one length to the next; beyond the remesh
-rule's stretch (:data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`) the sheet
-is remeshed at the current length and the solution is interpolated onto the
-new mesh (:func:`transfer`).
-
-How a fold is found: every continuation here runs on the engine's drivers
-(:func:`skfem_sheet.engine.natural`, :func:`skfem_sheet.engine.arclength`),
-with the sheet adapted to the engine's problem protocol by
-:class:`~skfem_sheet.sheet_shape.SheetShapeProblem` (one parameter, L or a/R,
-on a stretched and remeshed mesh) and corrected with the sheet's Newton
-stopping rule (:func:`_chord_linearization`).  Where a step of the
-continuation fails, the end of the branch is *located* with the minimally
-augmented fold system (:func:`skfem_sheet.engine.locate_fold`, as the fold
-curves do), never bracketed by failed solves; a branch that ends without a
-located fold says why (``Branch.reason``).  :func:`fold_lengths` then
-locates each fold once more on the results' mesh, made at the fold's own
-length (:func:`locate_on_mesh`: the fold followed along its branch,
-:func:`~skfem_sheet.engine.fold_on_branch`, to :data:`FOLD_TOL` in L/a, with
-the eigenvalue that crosses zero there confirmed), so that its value does
-not depend on how far the mesh it was first found on was stretched.
-
-Functions
----------
-:func:`fold_lengths`
-    ``L0*`` and ``L1*`` of a sheet's planform at its curvature and material
-    (:class:`FoldLengths`): the curvature-dominated branch followed from a
-    short sheet with increasing L, the gravity-dominated one from a long
-    sheet with decreasing L, their ends located;
-:func:`follow_length`
-    natural continuation in L from a solved sheet, until the branch ends
-    (its fold located) or the range does;
-:func:`follow_curvature`
-    the same in the clamp curvature at fixed L (critical curvatures
-    ``1/R0*`` and ``1/R1*``);
-:func:`s_curve`
-    pseudo-arclength continuation in L through both folds, tracing the
-    unstable middle branch;
-:func:`fold_position`
-    where one length sits against the fold lengths;
-:func:`stability`
-    stable or not, from the inertia of the constrained tangent.
+The length is a continuous parameter: a mesh made at ``L_m`` is stretched
+in x to nearby lengths (:meth:`skfem_sheet.problem.SheetProblem.with_length`)
+and remeshed beyond :data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`, the state
+interpolated (:func:`transfer`).  Every continuation runs on the engine's
+drivers with the sheet as :class:`~skfem_sheet.sheet_shape.SheetShapeProblem`;
+a branch's end is located with the minimally augmented fold system, never
+bracketed by failed solves, and a branch that ends without a fold says why.
+:func:`fold_lengths` locates each fold once more on a mesh made at it
+(:func:`locate_on_mesh`).  Also here: :func:`follow_length`,
+:func:`follow_curvature` (critical curvatures), :func:`s_curve` (through both
+folds), :func:`fold_position` and :func:`stability`.
 """
 from __future__ import annotations
 
@@ -297,24 +258,16 @@ def _tolerances(max_correction=np.inf, pair_contraction=False):
 
 def _chord_linearization(counter, max_factorizations=_OPTIONS.max_iterations):
     """Newton steps with the sheet's stopping rule (:func:`skfem_sheet.newton.newton`),
-    the last factorisation reused for the residual that is left once the
-    state has converged.
+    the last factorisation reused for the residual left once the state has converged.
 
-    At every iterate after the first the correction is first computed with
-    the last factorisation (a back-substitution).  If the residual there is
-    below ``rtol`` and that correction below ``utol``, the corrector stops
-    and returns the iterate (no factorisation spent only to confirm
-    convergence).  If the correction is below ``utol`` and at most half the
-    last one, but the residual is above ``rtol``, it is taken as it is (a
-    chord step): a thin sheet one correction of 1e-6 a away from its
-    equilibrium still has residuals of a percent of its weight in the stiff
-    membrane directions, which the factorisation at a state that close
-    removes as well as a new one (measured on the rectangle at a/R 2.5,
-    hmax 0.05, steps in L of 0.025 and 0.05: residuals 1.4e-2 and 1.9e-4 of
-    the weight brought to 2.9e-5 and 7.8e-8 by one chord step each, two
-    factorisations per step instead of three).  Otherwise the tangent is
-    factorised at the iterate, at most ``max_factorizations`` times per
-    correction.
+    After the first iterate the correction is first computed with the last
+    factorisation.  Residual below ``rtol`` and correction below ``utol``: the
+    iterate is returned.  Correction below ``utol`` and at most half the last
+    one, residual above ``rtol``: it is taken as it is (a chord step; a thin
+    sheet that close to its equilibrium still has membrane residuals that the
+    factorisation at hand removes as well as a new one: ``docs/decisions.md``,
+    "Chord steps").  Otherwise the tangent is factorised at the iterate, at most
+    ``max_factorizations`` times per correction.
     """
     state = {"fact": None, "n": 0, "last": None}
     tol = _OPTIONS
@@ -372,15 +325,11 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first",
                   progress=None, on_point=None, start=None, tol=None) -> Branch:
     """Follow the branch selected by ``path`` at ``sheet.length`` to ``stop``.
 
-    Natural continuation in L at full load: each step is predicted with
-    ``dw/dL`` and corrected by Newton.  A step fails if Newton does not
-    converge, if the equilibrium found is unstable, or if the deflection
-    jumps by more than ``jump`` (it landed on another branch); the fold is
-    then located from the last equilibrium with the minimally augmented
-    system, followed along the branch (:func:`_branch_end`,
-    :func:`skfem_sheet.engine.fold_on_branch`), and the branch ends at it if
-    it lies within the failed step.  Otherwise the step is halved, down to
-    ``min_step``.
+    Natural continuation in L at full load.  A step fails if Newton does not
+    converge, the equilibrium is unstable, or the deflection jumps by more
+    than ``jump``; the fold is then located along the branch from the last
+    equilibrium (:func:`_branch_end`) and ends the branch if it lies within
+    the failed step, else the step is halved, down to ``min_step``.
 
     Parameters
     ----------
@@ -400,13 +349,9 @@ def follow_length(sheet: Sheet, stop: float, *, path: str = "curvature-first",
         ``skfem_sheet.io.Series().on_point``, then ``Branch.write_series``).
     start : start strategy, optional
         How the sheet at the start is solved: None, the load path on this
-        mesh; or one of :func:`~skfem_sheet.solve.solve`'s strategies, e.g.
-        :class:`~skfem_sheet.starts.CoarseStart` (the load path on a coarse
-        mesh, carried here: a few factorisations on a fine mesh instead of the
-        whole path).
+        mesh; or one of :func:`~skfem_sheet.solve.solve`'s strategies.
     tol : float
-        Deprecated (the bracket of the bisection this replaced): read as
-        ``min_step``.
+        Deprecated: read as ``min_step``.
 
     Returns
     -------
@@ -468,26 +413,18 @@ _END_REACH = 0.5
 
 def _branch_end(direction, ahead):
     """The locator of a continuation's end (``natural``'s ``locate``) in the
-    direction ``direction`` (+1: the parameter increases): the fold where a
-    step failed, followed along the branch from the last equilibrium
-    (:func:`~skfem_sheet.engine.fold_on_branch`: each iterate an equilibrium
-    on a section of ``dw/dp``, Newton on ``dp/dc = 0``, the load to
-    :data:`FOLD_TOL`), or None.
+    direction ``direction`` (+1: the parameter increases): the fold where a step
+    failed, followed along the branch from the last equilibrium
+    (:func:`~skfem_sheet.engine.fold_on_branch`, the load to :data:`FOLD_TOL`),
+    or None.
 
-    Newton on the whole fold system (:func:`~skfem_sheet.engine.locate_fold`)
-    leaves a thin sheet's strongly curved branch at its first step and fails
-    from there (the rectangle at a/R 2.5, hmax 0.2: from 0.005 before its
-    standout fold); along the branch it does not.  First, without a
-    factorisation, the branch's quadratic model says whether a fold can be
-    near: with the tangent ``u' = dw/dp`` (given) and ``K u'' = -D^2 R[t, t]``
-    along ``t = (u', 1)`` (three residuals, a back-substitution with the
-    last factorisation), the section coordinate ``c = <v, u>`` along ``v =
-    u'/|u'|`` has ``c' = |u'|`` and ``c'' = <u', u''>/|u'|``, and the vertex
-    of ``p(c)`` -- the fold of the quadratic model -- lies ``c'/(2 c'')``
-    away in ``p``.  Where it lies behind (``c''`` of the other sign: the
-    branch straightens out ahead) or further than ``ahead``, the step failed
-    for another reason (a long step on a stiff branch) and no search is made
-    (but at the last try before the branch is given up).
+    Along the branch, not by Newton on the whole fold system, which leaves a
+    thin sheet's strongly curved branch at its first step.  First, without a
+    factorisation, the branch's quadratic model (``u' = dw/dp``, ``K u'' =
+    -D^2 R[t, t]``, the section coordinate ``c = <v, u>`` along ``v = u'/|u'|``)
+    puts the vertex of ``p(c)`` ``c'/(2 c'')`` away; where it lies behind or
+    further than ``ahead``, the step failed for another reason and no search is
+    made (but at the last try before the branch is given up).
     """
     def locate(counter, u, p, i, dudp, fact, last_try):
         if fact is not None and not last_try:  # the last try searches whatever the model says
@@ -518,32 +455,20 @@ def _follow(name, sheet, stop, *, path, hmax, layers, solver, symmetric, step, j
             progress, min_step=MIN_STEP, on_point=None, start=None, record=None, guide=None,
             twin=None, locate=True, names=False):
     """Natural continuation in ``name`` ("L" or "a/R") to ``stop``, its end
-    located (see :func:`follow_length`), on the engine's driver
-    :func:`skfem_sheet.engine.natural`: predictor ``dw/dp`` with the last
-    factorisation, the sheet's Newton stopping rule, a step failing when
-    Newton fails, the equilibrium is unstable or the deflection jumps; at a
-    failed step the fold is located from the last equilibrium along the
-    branch (``locate``, :func:`_branch_end`) and ends the branch if it lies
-    within the failed step, else the step is halved down to ``min_step``; in L the
-    mesh is remeshed (and the state transferred) before a step beyond the
-    stretch limit.  The arguments are checked here (``stop`` against
-    :data:`_STOP_RANGE` of ``name``).
+    located (see :func:`follow_length`), on :func:`skfem_sheet.engine.natural`
+    (in L remeshed, the state transferred, before a step beyond the stretch
+    limit; ``stop`` checked against :data:`_STOP_RANGE`).
 
     ``start``: how the first point (and a remeshed state that Newton cannot
-    finish) is reached (:func:`_along_path`).
-    ``record``: a list to append each point's :class:`_GuidePoint` to (the
-    branch as the guide of a finer one).  ``guide``: the points so recorded
-    of the same branch on a coarser mesh, whose second-order part corrects
-    each step's prediction (:class:`_Guide`; in L only).  ``twin``:
-    ``(problem, w)``, an equilibrium of the same sheet at the start on
-    another mesh (the end of the continuation the other way): if Newton from
-    it, carried here, lands on the start state, both continuations trace one
-    branch, and a :class:`_SameBranch` (the work of the start and the check)
-    is returned instead of tracing it again.  ``locate`` False: no fold is
-    looked for (a continuation up to a fold already located, e.g. the
-    branch on a fine mesh up to its fold).  ``names`` (in L): each point named
-    as ``solve`` names a state (:func:`~skfem_sheet.analyses.mode.mode_of`,
-    with the point's factorisation: back-substitutions and residuals)."""
+    finish) is reached (:func:`_along_path`).  ``record``: a list to append each
+    point's :class:`_GuidePoint` to.  ``guide``: those points of the same branch
+    on a coarser mesh (:class:`_Guide`; in L only).  ``twin``: ``(problem, w)``,
+    an equilibrium at the start on another mesh; if Newton from it lands on the
+    start state, both continuations trace one branch and a :class:`_SameBranch`
+    is returned instead.  ``locate`` False: no fold is looked for.  ``names``
+    (in L): each point named as ``solve`` names a state
+    (:func:`~skfem_sheet.analyses.mode.mode_of`).
+    """
     _check_common(sheet, hmax, step)
     stop = check_range("stop", stop, **_STOP_RANGE[name])
     min_step = min(float(min_step), float(step))
@@ -680,20 +605,13 @@ class _GuidePoint:
 
 class _Guide:
     """The coarse branch's second-order part as the correction of the fine
-    continuation's prediction (:func:`~skfem_sheet.engine.natural`'s
-    ``guide``).
+    continuation's prediction (:func:`~skfem_sheet.engine.natural`'s ``guide``).
 
-    The fine step from ``L0`` to ``L1`` predicts ``u(L0) + (L1 - L0) u'(L0)``
-    (its tangent), whose error is the branch's curvature term.  Where ``L0``
-    and ``L1`` are points of the coarse branch on one coarse mesh, the coarse
-    branch's own curvature term ``w_c(L1) - w_c(L0) - (L1 - L0) w_c'(L0)``,
-    interpolated onto the fine mesh at ``L1``, is added: the prediction's
-    error is then the difference of the two meshes' curvature terms (measured
-    on the rectangle at a/R 2.5, hmax 0.05 guided by 0.1, steps of 0.05: 1e-5
-    to 4e-4 instead of 9e-4 to 4e-3 of a, and 1-2 Newton iterations instead
-    of 2-3).  Elsewhere (a step halved off the coarse points, past the coarse
-    fold, across a coarse remesh) no correction: the tangent as without a
-    guide.
+    Where ``L0`` and ``L1`` are points of the coarse branch on one coarse mesh,
+    the coarse curvature term ``w_c(L1) - w_c(L0) - (L1 - L0) w_c'(L0)``,
+    interpolated onto the fine mesh, is added to the tangent prediction: its
+    error is then the difference of the two meshes' curvature terms
+    (``docs/decisions.md``, "A guided fine branch").  Elsewhere no correction.
     """
 
     def __init__(self, points, fine):
@@ -963,11 +881,8 @@ class FoldLengths:
         was lost without a fold: ``message`` says which).
     increasing, decreasing : Branch
         The two continuations (curvature-first from the short end,
-        gravity-first from the long end; one and the same where the
-        curvature-dominated branch reaches the long end without a fold and
-        the gravity-first state there is its end, and at a/R = 0): their
-        points on ``branch_hmax``, their ``fold`` (and ``fold_deflection``)
-        the located one on ``hmax``.
+        gravity-first from the long end; possibly one and the same): their
+        points on ``branch_hmax``, their ``fold`` the located one on ``hmax``.
     trace_hmax : float
         The mesh the branches were traced on and their folds first located
         (:func:`trace_mesh`).
@@ -1218,25 +1133,16 @@ def locate_on_mesh(sheet: Sheet, point, problem, kind: str, hmax: float, *, laye
     """A fold located on the mesh ``hmax`` made next to its length.
 
     The fold ``point`` (a :class:`skfem_sheet.engine.FoldPoint` in L on
-    ``problem``, e.g. a branch's end on a coarser or stretched mesh) is
-    carried onto a mesh of size ``hmax`` made at its length rounded to
-    :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID` (state and null
-    vector interpolated) and located there by following its branch
-    (:func:`~skfem_sheet.engine.fold_on_branch`: every iterate an
-    equilibrium on a section of the null vector, Newton on ``dL/dc = 0``,
-    the load to :data:`FOLD_TOL`), with the negative eigenvalue counts on
-    both sides checked (two factorisations; where they do not differ by
-    one, the fold is located once more from there, a thousand times closer,
-    and checked again: at a flat fold the critical eigenvalue changes slowly
-    along the null vector); where that does not converge,
-    by Newton on the minimally augmented system from the carried state, or
-    from it settled on its section first
-    (:func:`~skfem_sheet.foldcurve.refine.settled_fold`).  A fold that comes
-    out more than a grid step from its mesh's length is located once more,
-    on the mesh made next to where it came out (and that one is kept).
-    ``mesh_length``: make the mesh at this length instead, and keep it (to
-    compare with a fold located on that mesh by other code, e.g. a fold
-    curve's).
+    ``problem``) is carried onto a mesh of size ``hmax`` made at its length
+    rounded to :data:`~skfem_sheet.foldcurve.options.MESH_LENGTH_GRID` and
+    located there along its branch (:func:`~skfem_sheet.engine.fold_on_branch`,
+    the load to :data:`FOLD_TOL`), the negative eigenvalue counts on both sides
+    checked (where they do not differ by one, located once more a thousand
+    times closer); where that does not converge, by Newton on the minimally
+    augmented system, from the carried state or from it settled
+    (:func:`~skfem_sheet.foldcurve.refine.settled_fold`).  A fold more than a
+    grid step from its mesh's length is located once more on the mesh made next
+    to it.  ``mesh_length``: make the mesh at this length instead, and keep it.
 
     Returns
     -------
@@ -1304,36 +1210,22 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
     """The fold lengths ``L0*`` and ``L1*`` of a sheet's planform at its
     curvature and material, located, and where the sheet's length sits.
 
-    1. **The branches, traced.**  On the mesh :func:`trace_mesh` gives
-       (:data:`TRACE_HMAX` where ``hmax`` is finer; else ``hmax`` itself):
-       the curvature-dominated branch followed from ``lengths[0]``
-       (curvature-first) with increasing L, the gravity-dominated one from
-       ``lengths[1]`` (gravity-first) with decreasing L, by natural
-       continuation (:func:`follow_length`), each to its end, located with
-       the minimally augmented fold system.  Where the curvature-dominated
-       branch reaches ``lengths[1]`` without a fold and the gravity-first
-       state there is its end (:func:`_same_state`), the branch is traced
-       once (the continuation in L from one equilibrium is unique as long
-       as no fold is passed).
-    2. **The folds, located on the mesh ``hmax``.**  Each branch's end is
-       carried onto a mesh of size ``hmax`` made at its length and located
-       there along its branch to :data:`FOLD_TOL`, with the eigenvalue that
-       crosses zero confirmed (:func:`locate_on_mesh`: a few factorisations
-       on the fine mesh per fold, no load path there).
-    3. **The branches on ``hmax``** (``branches=True``, or ``on_point``):
-       each followed on the mesh ``hmax`` from its start (reached from the
-       trace mesh, :class:`~skfem_sheet.starts.CoarseStart`, each step's
-       prediction corrected by the traced branch's second-order part) up to
-       its located fold (the figures' curves d(L)).
+    1. **The branches, traced** on the mesh :func:`trace_mesh` gives: the
+       curvature-dominated branch from ``lengths[0]`` with increasing L, the
+       gravity-dominated one from ``lengths[1]`` with decreasing L
+       (:func:`follow_length`), each to its located fold (traced once where
+       the one reaches the other's start without a fold, :func:`_same_state`).
+    2. **The folds, located on the mesh ``hmax``** made at each
+       (:func:`locate_on_mesh`: a few factorisations per fold).
+    3. **The branches on ``hmax``** (``branches=True``, or ``on_point``): each
+       followed on ``hmax`` up to its located fold, guided by the traced one.
 
     Parameters
     ----------
     sheet : Sheet
         The planform, clamp curvature, thickness and modulus of the family
-        of lengths; its own length is placed against the folds
-        (:attr:`FoldLengths.position`).  Any planform (trapezoids and
-        :class:`~skfem_sheet.params.Planform` alike; the mesh is stretched
-        in L, the planform's profile with it).
+        of lengths (any planform); its own length is placed against the
+        folds (:attr:`FoldLengths.position`).
     hmax : float
         The mesh the folds are located on (default
         :data:`~skfem_sheet.params.DEFAULT_HMAX`, the paper's;
@@ -1363,8 +1255,7 @@ def fold_lengths(sheet: Sheet, *legacy, hmax: float = DEFAULT_HMAX, lengths=None
         The shortest step (:func:`follow_length`; ``tol`` deprecated).
     names : bool
         Name each point of the returned branches as ``solve`` names a state
-        (:attr:`BranchPoint.name`; the figures' transition between the modes
-        where the sheet is not bistable).
+        (:attr:`BranchPoint.name`).
     legacy, legacy_keywords
         The old call, ``fold_lengths(tip_width, curvature, thickness=...,
         modulus=..., ...)``, still works for one release, with a
@@ -1710,25 +1601,15 @@ def s_curve(sheet: Sheet, stop: float, *, hmax: float = DEFAULT_HMAX, layers=Non
     """Pseudo-arclength continuation in L from the curvature-dominated state
     at ``sheet.length`` until the length exceeds ``stop`` (on whatever branch).
 
-    Unknowns ``(w, L)``; the equilibrium equations are bordered by the
-    arclength condition ``<t_u, u - u_0> + t_L (L - L_0) = ds`` with the inner
-    product ``<a, b> = a_tip b_tip + theta a . b``: the vertical displacement
-    of the tip's centre (so that steps are even along the plotted curve
-    d(L)) plus the root-mean-square of all displacements (``theta = 1 /
-    number of displacement unknowns``), all in units of a; the pressures
-    are left out of the norm.  The continuation is the engine's
-    (:func:`skfem_sheet.engine.arclength`): each corrector iteration solves
-    the bordered system by block elimination with the one factorisation of
-    the tangent, which stays usable through the fold where the tangent alone
-    is singular.  Turning points are found where ``t_L`` changes sign and
-    located there with the minimally augmented system (from the nearer of
-    the two points, :func:`~skfem_sheet.engine.fold.fold_between`); where
-    that does not converge, the vertex of the parabola ``L(s)`` through the
-    three points around the sign change is taken (``SCurve.located``).
-
-    One mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop``
-    must be within a factor 1.8 of each other.  ``on_point(problem, w, L)``,
-    if given, is called with the state of each point (see :func:`follow_length`).
+    The engine's :func:`skfem_sheet.engine.arclength` on ``(w, L)``, with the
+    inner product ``<a, b> = a_tip b_tip + theta a . b`` (the tip's vertical
+    displacement, so that steps are even along the plotted d(L), plus the mean
+    square of the displacements; pressures left out).  Turning points are
+    located with the minimally augmented system where ``t_L`` changes sign,
+    else taken at the vertex of the parabola ``L(s)`` (``SCurve.located``).  One
+    mesh, stretched, serves the whole curve: ``sheet.length`` and ``stop`` must
+    be within a factor 1.8 of each other.  ``on_point(problem, w, L)`` as in
+    :func:`follow_length`.
     """
     _check_common(sheet, hmax, 0.5)
     stop = check_range("stop", stop, sheet.length, 20.0, lo_open=True)

@@ -9,11 +9,7 @@ arrays, dof layout), the assembler of that space
 operators, work buffers and element threads) and the problem
 (:class:`~skfem_sheet.problem.SheetProblem`: the sheet on them).  The first
 three cost time and memory; the problem is a few references (its constant
-blocks are made on first use).  Measured on one core (half rectangle L/a
-1.3): the mesh, space and assembler take 0.3 s to build at hmax 0.1, 0.5 s
-at 0.05 and 2 s at 0.03, most of it the assembler, and hold 25, 90 and 250
-MB once a tangent has been assembled (half of it the assembler's work
-buffers).
+blocks are made on first use); ``docs/decisions.md``, "Keeping the build".
 
 :class:`BuildChain` keeps what it built so that a second request for the
 same mesh (the other load path of the same sheet, another curvature or

@@ -3,20 +3,14 @@
 Two questions of a researcher with their own sheets (paper, Figs. 2, 3, 5):
 
 - *How sensitive are the standout and pop-up lengths to the thickness, the
-  modulus, ...?*  :func:`locate_folds` locates ``L1*`` and ``L0*`` of one
-  sheet (:func:`~skfem_sheet.bistability.fold_lengths`: the located folds'
-  states and null vectors kept) and :func:`fold_point_sensitivities`
-  differentiates a located fold by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
-  (:func:`skfem_sheet.analyses.sensitivity.fold_sensitivities`): no fold is
-  located again at another parameter value.
-- *Which modulus makes the model match the deflections I measured?*
-  :func:`calibrate` fits free parameters to measured tip deflections by
-  least squares (:func:`scipy.optimize.least_squares`), each solve giving
-  its Jacobian row by one back-substitution
-  (``solve(..., sensitivities=...)``), with standard errors from ``J^T J``;
-  it refuses, with a message saying why, data that cannot determine the
-  parameters (a singular ``J^T J``) and a measurement whose model state
-  lies across a snap.
+  modulus, ...?*  :func:`locate_folds` locates ``L1*`` and ``L0*`` and
+  differentiates each by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
+  (:func:`fold_point_sensitivities`): no fold is located again.
+- *Which modulus makes the model match the deflections I observed?*
+  :func:`calibrate` fits free parameters by least squares, each solve giving
+  its Jacobian row by one back-substitution, with standard errors from
+  ``J^T J``; it refuses, saying why, data that cannot determine the
+  parameters and a measurement whose model state lies across a snap.
 
 Examples
 --------
@@ -184,12 +178,9 @@ def locate_folds(sheet: Sheet = None, *legacy, hmax: float = DEFAULT_HMAX,
     """The standout and pop-up lengths of a sheet's planform at its curvature
     and material, located, with their sensitivities.
 
-    The folds are :func:`~skfem_sheet.bistability.fold_lengths`' (the
-    branches in L traced, their ends located on the mesh ``hmax`` made at
-    their lengths, to :data:`~skfem_sheet.bistability.FOLD_TOL`, the
-    eigenvalue crossing confirmed), and each is differentiated by
-    ``dL*/dp = -(phi . R_p) / (phi . R_L)`` (:func:`fold_point_sensitivities`):
-    no fold is located again at another parameter value.
+    The folds are :func:`~skfem_sheet.bistability.fold_lengths`', each
+    differentiated by ``dL*/dp = -(phi . R_p) / (phi . R_L)``
+    (:func:`fold_point_sensitivities`).
 
     Parameters
     ----------
@@ -304,14 +295,14 @@ class CalibrationError(ParameterError):
 
 @dataclass(frozen=True)
 class Measurement:
-    """One measured tip deflection and the sheet it was measured on.
+    """One observed tip deflection and the sheet it was observed on.
 
     Attributes
     ----------
     deflection : float
         d/a, positive downward (the package's :func:`~skfem_sheet.analyses.observables.tip_deflection`).
     length : float or None
-        L/a of the measured sheet (None: that of the sheet given to :func:`calibrate`).
+        L/a of the observed sheet (None: that of the sheet given to :func:`calibrate`).
     tip_width : float or None
         Its b/a (None: the calibration sheet's).
     curvature : float or None
@@ -412,11 +403,9 @@ class Calibration:
     values : tuple of float
         Their fitted values.
     standard_errors : tuple of float
-        Their standard errors, ``sqrt(diag(C))`` with
-        ``C = s^2 (J^T J)^-1`` at the fit; ``s^2 = 1`` with the measurements'
-        uncertainties (``J`` weighted by them), else the residual variance
-        ``RSS / (n - k)`` (NaN for as many measurements as parameters: an
-        exact fit says nothing about the noise).
+        ``sqrt(diag(C))``, ``C = s^2 (J^T J)^-1``; ``s^2 = 1`` with the
+        measurements' uncertainties, else ``RSS / (n - k)`` (NaN for as many
+        measurements as parameters).
     covariance : tuple of tuple
         ``C``.
     initial : tuple of float
@@ -425,7 +414,7 @@ class Calibration:
     model_deflections : tuple of float
         The model's d of each measurement at the fit.
     residuals : tuple of float
-        Model minus measured d.
+        Model minus observed d.
     branches : tuple of str
         The branch each measurement's solve ended on at the fit.
     sheet : Sheet
@@ -608,15 +597,13 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
               hmax: float = DEFAULT_HMAX, *, gravity: float = 1.0, solver: str = "auto",
               max_evaluations: int = 20, xtol: float = 1e-5, layers=None,
               start="coarse", progress: bool = False) -> Calibration:
-    """Fit free parameters of ``sheet`` to measured tip deflections.
+    """Fit free parameters of ``sheet`` to observed tip deflections.
 
-    Least squares on the residuals ``(d_model_i - d_i) / sigma_i``
-    (:func:`scipy.optimize.least_squares`, trust region reflective within
-    the parameters' ranges), each model evaluation one solve per measurement
-    with ``solve(..., sensitivities=free)``: the Jacobian is the solves'
-    sensitivities (one back-substitution per parameter), no finite
-    differences.  The standard errors are those of the linearised model at
-    the fit, ``C = s^2 (J^T J)^-1``.
+    Least squares on ``(d_model_i - d_i) / sigma_i``
+    (:func:`scipy.optimize.least_squares`, trust region reflective), each
+    evaluation one solve per measurement with ``solve(...,
+    sensitivities=free)`` as the Jacobian; standard errors from
+    ``C = s^2 (J^T J)^-1`` at the fit.
 
     Parameters
     ----------
@@ -641,12 +628,10 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
         Most model evaluations.
     xtol : float
         Relative change of the parameters at which the fit stops (1e-5: far
-        below the standard error of any measured deflection; smaller costs an
-        evaluation more with noisy data, measured).
+        below the standard error of any observed deflection; smaller costs an
+        evaluation more with noisy data).
     progress : bool
-        A tqdm bar on stderr: the solves made, with the parameters being tried
-        (each model evaluation is one solve per measurement; the bar has no
-        total, the fit stops when it converges).
+        A tqdm bar on stderr: the solves made, with the parameters tried.
 
     Returns
     -------
@@ -655,12 +640,9 @@ def calibrate(sheet: Sheet, measurements, free=("modulus",), path: str = "curvat
     Raises
     ------
     CalibrationError
-        Where the measurements cannot determine the free parameters (fewer
-        measurements than parameters, a parameter the deflections do not
-        depend on, or a combination of parameters they do not: a singular
-        ``J^T J``, checked at the start and at the fit), where a
-        measurement's state lies across a snap (its branch changed between
-        two parameter values the fit tried), or where a solve failed.
+        Where the measurements cannot determine the free parameters (a
+        singular ``J^T J``, checked at the start and at the fit), where a
+        measurement's state lies across a snap, or where a solve failed.
     """
     from scipy.optimize import least_squares
 

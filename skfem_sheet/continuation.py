@@ -2,37 +2,22 @@
 
 In the bistable region the equilibrium reached depends on the load path
 (paper, "Finite-element simulations" and SI "Numerical Method"):
-
-``"curvature-first"``
-    ramp the clamp curvature at zero gravity, then gravity to full load:
-    selects the curvature-dominated (aloft) shape;
-``"gravity-first"``
-    ramp gravity at zero curvature, then the curvature: selects the
-    gravity-dominated (drooped) shape.
+``"curvature-first"`` ramps the clamp curvature at zero gravity, then
+gravity (the curvature-dominated shape); ``"gravity-first"`` ramps gravity,
+then the curvature (the gravity-dominated shape).
 
 Each phase is traced by the engine's load-path driver
-(:func:`skfem_sheet.engine.ramp`) in its load fraction ``lam`` (0 to 1),
-with the sheet as an engine problem (:class:`~skfem_sheet.sheet_engine.LoadPhase`):
-natural steps where the branch is gentle, pseudo-arclength where it is
-steep, every step accepted by the one step rule
-(:class:`~skfem_sheet.engine.StepRule`).  Under quasi-static loading the
-sheet leaves its branch exactly where the load has a **turning point** (a
-fold): there one eigenvalue of the constrained Hessian crosses zero and the
-stable branch ends.  The driver detects it (the tangent's load component
-changes sign, and one more negative eigenvalue past it) and locates it with
-the minimally augmented system; the sheet then **snaps**: it is moved off the
-fold along the null vector, downhill in energy, settled at the fold load by
-pseudo-transient continuation onto the stable state there, and the ramp
-goes on from that state (:class:`Snap` records it).  A branch that is merely
-steep has no turning point, is followed, and records no snap.  A turn too
-sharp for the smallest step is located where the steps stall
-(:func:`~skfem_sheet.engine.loadpath.ramp`); a snap must move the state (a
-settle that comes back to its own fold is tried on the fold's other side) and
-leaves its fold for good (a branch that leads back to a fold the path
-snapped from ends the path, said as such).
-
-The end state at full load is verified: a stable equilibrium (inertia of
-the constrained tangent), else the path fails and says so.
+(:func:`skfem_sheet.engine.ramp`) in its load fraction ``lam``, with the
+sheet as :class:`~skfem_sheet.sheet_engine.LoadPhase` and every step accepted
+by the one step rule (:class:`~skfem_sheet.engine.StepRule`).  Under
+quasi-static loading the sheet leaves its branch exactly where the load has
+a **turning point** (a fold, one eigenvalue of the constrained Hessian
+crossing zero); the driver locates it, and the sheet **snaps**: it is moved
+off the fold along the null vector, downhill in energy, settled onto the
+stable state at the fold load, and the ramp goes on from there
+(:class:`Snap`).  A merely steep branch is followed and records no snap; a
+snap must move the state and leaves its fold for good.  The end state at full
+load is verified stable, else the path fails and says so.
 """
 from __future__ import annotations
 
@@ -67,10 +52,8 @@ class StepOptions:
     """The load steps: their lengths and the one acceptance rule
     (:class:`~skfem_sheet.engine.StepRule`).
 
-    Lengths are measured per unit of the sheet's size ``max(1, L/a)``
-    (displacements grow with the length): a step is an arclength in the
-    phase's load fraction and the state (about a fraction of the phase where
-    the branch is gentle, a displacement where it is steep).
+    Lengths are counted per unit of the sheet's size ``max(1, L/a)``: a step is
+    an arclength in the phase's load fraction and the state.
 
     Attributes
     ----------
@@ -83,21 +66,13 @@ class StepOptions:
     corrector_distance : float
         Nominal distance (largest displacement) between a step's prediction
         and its corrected state.  A step that lands more than four times
-        further is rejected and halved (a jump onto another branch does not
-        shrink, so no jump longer than this is taken silently), and the next
-        step is chosen to land at about this distance.  The points on the way
-        are solved to a tenth of it (their error a small part of the next
-        step's distance); the end of the path and the folds to the
-        tolerances of ``NewtonOptions``.
+        further is rejected and halved, and the next step aims at this distance.
+        The points on the way are solved to a tenth of it; the end of the path
+        and the folds to the tolerances of ``NewtonOptions``.
     fold_tolerance : float
-        A located fold's load is known to this fraction of its phase (the
-        fold's load fraction ``lam`` to ``fold_tolerance``): the iteration on
-        the branch (:func:`~skfem_sheet.engine.fold.fold_on_branch`) stops
-        when the load would move less on the way to the fold.  The default,
-        1e-5, is a hundredth of how far the fold loads move between the meshes
-        hmax 0.1 and 0.03 (1e-3 to 2e-2 of the phase on the solve sample's
-        snapping sheets), and costs one section solve where the fold was
-        located on a coarser mesh.
+        A located fold's load fraction is known to this
+        (:func:`~skfem_sheet.engine.fold.fold_on_branch`'s ``ptol``): a
+        hundredth of how far the fold loads move between hmax 0.1 and 0.03.
     elastica_start : bool
         Start the gravity ramp of a flat clamp at full load from the heavy
         elastica (see :func:`elastica_state`) instead of stepping from zero.
@@ -252,11 +227,9 @@ def newton_tolerances(options: NewtonOptions, utol: float | None = None) -> Tole
     """The sheet's Newton stopping rule as the engine's :class:`Tolerances`
     (residual relative to the full weight, largest displacement correction);
     with ``utol``, for the loose points on the way: that correction bound and a
-    residual of at most the sheet's own weight (measured: without the
-    residual bound, Newton's first iterate from a prediction past a fold,
-    with a small correction from the tangent there, was accepted as a point
-    of the branch where none is near, and four of the 31 snapping sheets of
-    the stress benchmark lost their path)."""
+    residual of at most the sheet's own weight (without it, a first iterate
+    past a fold can pass as a point of the branch: ``docs/decisions.md``,
+    "The loose points' residual bound")."""
     tol = Tolerances(rtol=options.rtol, utol=options.utol, max_iterations=options.max_iterations,
                      max_halvings=options.max_halvings, divergence_floor=0.1)
     return tol if utol is None else replace(tol, rtol=1.0, utol=utol)
@@ -317,15 +290,11 @@ def snap_from_fold(sheet: SheetLoadProblem, phase: LoadPhase, name: str, fold, *
     """The snap at a located fold: leave it along its null vector, downhill
     in energy, and settle at the fold load onto the stable state there.
 
-    The fold state is moved by the nominal corrector distance of
-    ``step_options`` (a step inside Newton's basin) along the null vector ``v``, to the side where the
-    energy falls: along ``v`` the energy at the fold load is ``a s^3 / 6``
-    (``a = v . D^2 R[v, v]``, :attr:`FoldPoint.a`), so ``s = -sign(a)``
-    (the side on which the branch would go on to its unstable half, the way
-    the sheet was moving).  Pseudo-transient continuation
-    (:func:`~skfem_sheet.newton.pseudo_transient`, drawn to stable states)
-    settles it, Newton solves the landed state to ``newton_options``, and its
-    stability is verified.
+    The fold state is moved by the nominal corrector distance along the null
+    vector ``v`` to the side where the energy ``a s^3 / 6`` falls
+    (``s = -sign(a)``, ``a = v . D^2 R[v, v]``), settled by pseudo-transient
+    continuation (:func:`~skfem_sheet.newton.pseudo_transient`), solved by
+    Newton to ``newton_options`` and verified stable.
 
     Returns
     -------
@@ -653,14 +622,10 @@ def cylinder_state(problem, kappa, pressure="zero"):
 
     Notes
     -----
-    Measured as the start of a Newton solve at zero gravity against the
-    curvature ramp of ``curvature-first`` (``benchmarks/solve_speed_cylinder.py``,
-    ``benchmarks/results/solve_cylinder_start_hmax0.1.txt``): it does not
-    pay, so the load paths do not use it.  The sheet is no cylinder: away
-    from the clamp the transverse curvature relaxes and the centre line lifts
-    (by 0.3 a at the tip of L/a = 2, a/R = 4), and Newton from the cylinder
-    diverges at a/R >~ 3 and needs 6-12 iterations below, where the ramp
-    takes 8-24 factorisations in all.
+    As a start of Newton at zero gravity it does not pay, so the load paths do
+    not use it: the sheet is no cylinder (away from the clamp the transverse
+    curvature relaxes and the centre line lifts); the record:
+    ``benchmarks/results/speed/solve_cylinder_start_hmax0.1.txt``.
     """
     if pressure not in ("zero", "plate"):
         raise ParameterError(f"pressure must be 'zero' or 'plate', got {pressure!r}")
@@ -681,29 +646,24 @@ def cylinder_state(problem, kappa, pressure="zero"):
 
 def end_state_verdict(problem, solver, w, stats):
     """Stability of the equilibrium ``w``: ``(stable, k)``, the one end-state
-    check of the load paths and of :func:`skfem_sheet.solve.solve`'s
-    coarse-to-fine finish.
+    check of the load paths and of :func:`skfem_sheet.solve.solve`'s finish.
 
-    Read first from the last factorised tangent (Newton's last iterate but
-    one, within the tolerance of ``w``).  If that inertia cannot be trusted
-    (``stable`` unknown, e.g. perturbed pivots, or the back-end does not
-    report it) or says "not positive definite" without a negative eigenvalue
-    (``(False, 0)``: a zero pivot of a nearly singular tangent), once more
-    from the tangent at ``w``, and if that still cannot tell, from a SuperLU
-    factorisation of it (whose inertia is exact when it pivots on the
-    diagonal; only up to ``_SUPERLU_CHECK_DOFS`` unknowns, its fill grows
-    fast).
+    Read from the last factorised tangent; where that inertia cannot be
+    trusted (unknown, or not positive definite without a negative eigenvalue)
+    once more from the tangent at ``w``, and then from a SuperLU factorisation
+    of it (exact inertia with diagonal pivoting; up to ``_SUPERLU_CHECK_DOFS``
+    unknowns).
 
     Parameters
     ----------
     problem : SheetProblem
     solver : linear-solver back-end
-        Holds the last factorised tangent; it is left factorised at ``w`` if
-        a re-check was needed.
+        Holds the last factorised tangent; left factorised at ``w`` if a
+        re-check was needed.
     w : ndarray
         The equilibrium.
     stats : ~skfem_sheet.newton.Stats
-        Counts the factorisations of the re-checks (and their time).
+        Counts the factorisations of the re-checks.
 
     Returns
     -------

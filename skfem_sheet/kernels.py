@@ -13,8 +13,8 @@ the paper's; it only shifts the Lagrange multiplier, ``p_paper = p + mu`` (the
 paper's pressure is ``mu`` in the stress-free state, ours is 0).  Without it
 the displacement block of the tangent carries ``-mu D^2 J``, which with one
 element through the thickness (where P1 pressure enforces ``J = 1`` only
-weakly) made Newton stall at mesh-dependent, unphysical loads (see
-``shared/notes/measured-facts.md``).  Outputs report ``p_paper``.
+weakly) makes Newton stall at mesh-dependent, unphysical loads
+(``docs/decisions.md``, "The shifted pressure").  Outputs report ``p_paper``.
 
 Everything here works on stacks of quadrature-point values (leading axes
 ``(nel, nq)``) and knows nothing of meshes or dof numbering: the element

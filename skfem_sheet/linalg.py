@@ -15,34 +15,21 @@ The Taylor-Hood tangent ``[[A, B^T], [B, 0]]`` is symmetric indefinite with a
 zero pressure block.  Back-ends:
 
 ``"pardiso"``
-    Intel MKL PARDISO through pypardiso's low-level handle, in symmetric
-    indefinite mode (matrix type -2, upper triangle, Bunch-Kaufman pivoting with
-    weighted matching and scaling).  The symbolic analysis (METIS ordering) is
-    done once and reused while the sparsity pattern stays the same.  The
-    number of perturbed pivots is read after every factorisation; when there
-    are any, the inertia is reported unknown.  Reproducible by default (the
-    same bits in every process and for any thread count; ``reproducible=False``
-    for MKL's free-running threads).  Needs the optional ``fast`` extra
-    (``pip install .[fast]``).
+    Intel MKL PARDISO through pypardiso's low-level handle, symmetric
+    indefinite (matrix type -2, Bunch-Kaufman pivoting with weighted matching
+    and scaling), the symbolic analysis reused while the pattern stays; the
+    inertia is reported unknown where pivots were perturbed; reproducible by
+    default (:class:`PardisoSolver`).  Needs the ``fast`` extra.
 ``"superlu"``
-    scipy's SuperLU configured for this structure: a symmetric minimum-degree
-    ordering on ``A + A^T`` (computed once per pattern, adjusted so that no
-    pressure row is eliminated before all its neighbours), diagonal pivoting,
-    symmetric mode.  scipy's default (COLAMD, partial pivoting) does not
-    finish on these matrices.
+    scipy's SuperLU with a symmetric minimum-degree ordering on ``A + A^T``
+    (no pressure row eliminated before all its neighbours), diagonal
+    pivoting, symmetric mode (scipy's default does not finish on these
+    matrices).
 ``"pyamg"``
-    Flexible GMRES, right-preconditioned by the block upper-triangular
-    ``[[A~, B^T], [0, -M_p / mu]]``, where ``A~^-1`` is one V-cycle of a
-    smoothed-aggregation AMG hierarchy of the displacement block (node-wise
-    3x3 blocks, the six rigid-body modes plus three plate-bending modes as
-    near-null space, energy-minimising prolongation) and ``M_p / mu``, the
-    pressure mass matrix over the shear modulus, stands in for the Schur
-    complement.  No factorisation of the whole system: for meshes too big to
-    factor.  Needs :meth:`PyAMGSolver.attach` (a :class:`SaddlePointLayout`),
-    and converges 2-5x faster on a drooped sheet when ``factorize`` gets the
-    state (the near-null space is then that of the deformed sheet).  About
-    4-5x slower than PARDISO on this thin sheet at hmax 0.08 (see
-    ``benchmarks/linear_backends.py``); no inertia.
+    FGMRES with a block-triangular preconditioner on a smoothed-aggregation
+    hierarchy of the displacement block (:class:`PyAMGSolver`): no
+    factorisation, for meshes too big to factor; needs
+    :meth:`PyAMGSolver.attach` and, on a deformed sheet, the state; no inertia.
 ``"auto"``
     pardiso when importable, else superlu.
 """
@@ -376,12 +363,8 @@ class PardisoSolver(_Timed):
     supernode updates in an order that depends on thread timing, and a
     pseudo-transient snap amplifies that round-off into different Newton
     iteration counts and end states).  ``iparm(34)`` alone switches the mode
-    on (``MKL_CBWR`` is not needed; set, it also does).  Cost: none measured --
-    on the shared 2-core machine (load 16-20) full solves of the hmax 0.06
-    rectangle took 0.67x the wall time of the free-running threads (median of
-    four alternating pairs, ``benchmarks/results/
-    solve_sample_reproducible_hmax0.06.txt``); with one thread the two are
-    equally fast.
+    on (``MKL_CBWR`` is not needed; set, it also does).  It costs no time
+    (the record: ``benchmarks/results/speed/solve_sample_reproducible_hmax0.06.txt``).
 
     Parameters
     ----------
@@ -434,9 +417,8 @@ class PardisoSolver(_Timed):
         # iparm(8) = 0: PARDISO's default, two steps of iterative refinement
         # only where the factorisation perturbed pivots; an exact factorisation
         # solves to a relative residual of 1e-10 without them, and each step
-        # (a product and a solve) made a back-substitution 2.4x as long
-        # (measured, the half rectangle L 1.3 at hmax 0.03, one thread:
-        # 0.131 s against 0.055 s, the solutions equal to 1e-13)
+        # (a product and a solve) makes a back-substitution 2.4x as long
+        # (docs/decisions.md, "No iterative refinement in PARDISO")
         ip[7] = 0
         ip[9] = int(pivot_perturbation)   # iparm(10): perturb pivots below 10^-value
         ip[10] = int(bool(scaling))       # iparm(11): symmetric scaling
@@ -611,27 +593,16 @@ class PyAMGSolver(_Timed):
       eigenvalues of ``M_p^-1 S`` lie in ``[0.14, 1.5] / mu`` on the
       reference tangent), factorised once in :meth:`attach`.
 
-    What mattered (Newton systems of the L/a = 1.3, a/R = 2.5 rectangle,
-    hmax 0.08; iterations to ``1e-8``): plain smoothed aggregation with
-    rigid-body modes needed 535 CG iterations on ``A`` alone; the bending
-    modes halve that, a strength threshold ``theta = 0.02`` (smaller
-    aggregates) plus energy-minimising prolongation bring it to 27.  On the
-    whole system FGMRES with the triangular preconditioner needs 32-48
-    iterations against 131-186 for MINRES with the block-diagonal one.  On
-    the drooped (gravity-first) branch, reference-configuration modes needed
-    61-155 iterations per solve, deformed-configuration ones 27-39.  The
-    iteration counts hardly change with the mesh (about 35 on average to
-    ``1e-6`` at hmax 0.15, 0.1 and 0.08).  Reusing the prolongators between
-    Newton iterations cut the setup time by two thirds for about 10% more
-    iterations.
+    The choices (bending modes, ``theta``, the triangular preconditioner,
+    deformed-configuration modes, reused prolongators): ``docs/decisions.md``,
+    "The pyamg solver".
 
     Parameters
     ----------
     rtol : float
         Required ``||K x - b|| / ||b||``, checked on the true residual;
-        :class:`LinearSolverError` if not reached.  The default ``1e-6`` gave
-        the same Newton iterations and deflections (to 10 digits) as PARDISO
-        on both load paths at hmax 0.15 and 0.08.
+        :class:`LinearSolverError` if not reached (the default ``1e-6``: the
+        same Newton iterations and deflections as PARDISO).
     maxiter : int
         Most FGMRES iterations per solve (no restarts; memory ``2 maxiter``
         vectors).

@@ -12,16 +12,10 @@ With ``half=True`` the mirror is skipped: the mesh is then exactly the
 half-model of :func:`skfem_sheet.solve` (``U_y = 0`` on ``y = 0``).
 
 Nested refinement (``refine=k``): the plan triangulation made at ``hmax`` is
-split ``k`` times into four (edge midpoints; the trapezoid's edges are straight,
-so its geometry stays exact; a curved outline stays the polygon of the base mesh) and extruded in ``layers * 2**k`` layers.  Every edge
-of the base mesh is halved ``k`` times in all three directions, so the meshes
-``refine = 0, 1, 2, ...`` of one base are nested (each one's vertices contain
-the previous one's, and each prism lies in one prism of the coarser mesh) and
-made of similar prisms: a convergence study on them is free of the
-mesh-to-mesh noise of unrelated unstructured meshes.  (The tetrahedra are not
-nested: every prism is cut into three along its own vertex order, and the
-middle child of a triangle is the parent rotated by 180 degrees, so its cut is
-the mirror of the parent's.)
+split ``k`` times into four and extruded in ``layers * 2**k`` layers, so the
+meshes ``refine = 0, 1, 2, ...`` of one base are nested (each prism lies in
+one prism of the coarser mesh; the tetrahedra are not) and made of similar
+prisms: a convergence study free of the noise of unrelated meshes.
 
 Why extruded rather than a free 3D tetrahedral mesh:
 
@@ -84,21 +78,14 @@ class SheetMesh:
     planform : Planform or None
         The plan view (None: the trapezoid of ``tip_width``).
     free_edge : ndarray (k, 2) or None
-        Plan coordinates ``(x, y)`` (at ``length``) of the mesh points on the
-        free edge: the vertices and edge midpoints of the plan's boundary
-        edges on the tip outline (the cut ``x = L`` and the bites; the tip
-        point of a pointed sheet).  Their mid-plane nodes are where the tip
-        deflection is read (:func:`skfem_sheet.analyses.observables.free_edge_nodes`).
+        Plan coordinates ``(x, y)`` of the plan's boundary points on the tip
+        outline (the cut ``x = L`` and the bites), where the tip deflection
+        is read (:func:`skfem_sheet.analyses.observables.free_edge_nodes`).
         None for meshes built by hand: the free edge is then ``x = length``.
     chord_error : float
         The largest distance of the plan's boundary from the outline it
-        meshes (:func:`chord_error`): 0 where the outline is straight (the
-        trapezoid, and meshes built by hand), else the sagitta of its chords
-        on the curved profile and the bites (about ``h^2 k / 8`` for edges of
-        length ``h`` on a curve of curvature ``k``).  Two meshes of one
-        outline differ by at most the sum of theirs, which bounds how far
-        outside one mesh a node of the other can lie
-        (:func:`~skfem_sheet.analyses.transfer.transfer`).
+        meshes (:func:`chord_error`; about ``h^2 k / 8`` for edges of length
+        ``h`` on a curve of curvature ``k``, 0 where it is straight).
     """
 
     mesh: object
@@ -162,8 +149,7 @@ def default_layers(thickness: float, hmax: float) -> int:
     Taylor-Hood (P2-P1) tetrahedra lose their inf-sup stability when no vertex
     of an element is interior: the pressure then enforces ``J = 1`` poorly
     (pointwise ``J - 1`` of 0.1) and Newton stalls or bounces at mesh-dependent
-    loads.  Measured on the flat rectangle L = 1.3, hmax = 0.06: 128 Newton
-    iterations and 15 rejected load steps with one layer, 52 and 4 with two.
+    loads (``docs/decisions.md``, "At least two layers").
     """
     return max(2, math.ceil(thickness / hmax - 1e-9))
 
@@ -272,16 +258,11 @@ def plan_triangulation(length: float, tip_width: float, hmax: float, half: bool 
 def chord_error(xy, tri, length: float, planform=None) -> float:
     """The largest distance of a plan triangulation's boundary from the outline.
 
-    The boundary vertices of a mesh of a curved outline lie on it (gmsh places
-    them on the spline through the profile, within about 1e-6 of the profile
-    itself, and on the exact circle arcs of the bites), its edges are chords:
-    between their ends they leave the curve by up to their sagitta, greatest
-    near their midpoints.  Measured at every boundary vertex and edge midpoint
-    on a curved piece of the outline (not on the axis ``y = 0``, the clamp
-    ``x = 0`` or the tip cut ``x = L``, which are straight and meshed
-    exactly): the vertical gap to the profile ``y = p(x/L)/2`` (at least the
-    distance to it) or the radial gap to a bite's circle, whichever is
-    smaller.  0 for the trapezoid (straight edges only).
+    The boundary vertices of a mesh of a curved outline lie on it, its edges
+    are chords that leave the curve by up to their sagitta.  Evaluated at
+    every boundary vertex and edge midpoint on a curved piece of the outline:
+    the vertical gap to the profile ``y = p(x/L)/2`` or the radial gap to a
+    bite's circle, whichever is smaller.  0 for the trapezoid.
 
     Parameters
     ----------
@@ -604,10 +585,7 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
     half : bool
         Mesh only the half ``y >= 0`` (the ``y >= 0`` part of the full mesh).
     refine : int
-        Nested refinements, 0 to 4: the plan triangulation made at ``hmax``
-        is split ``refine`` times into four and extruded in
-        ``layers * 2**refine`` layers, so every edge of the base mesh is halved
-        ``refine`` times in all three directions (8x the tetrahedra each time).
+        Nested refinements, 0 to 4 (see the module; 8x the tetrahedra each).
 
     Examples
     --------
@@ -625,11 +603,9 @@ def sheet_mesh(sheet: Sheet, hmax: float = 0.03, layers=None, half: bool = False
 class MeshSpec:
     """What a sheet mesh is made from: the checked arguments of :func:`sheet_mesh`.
 
-    Equal specs give equal meshes (gmsh runs single-threaded with fixed
-    options), so a spec is the key under which a
-    :class:`~skfem_sheet.build.BuildChain` keeps a mesh.  Sheets that differ
-    only in what the mesh does not depend on (curvature, modulus) have equal
-    specs.
+    Equal specs give equal meshes, so a spec is the key under which a
+    :class:`~skfem_sheet.build.BuildChain` keeps a mesh (curvature and
+    modulus do not enter).
 
     Attributes
     ----------

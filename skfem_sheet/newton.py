@@ -57,11 +57,10 @@ class NewtonOptions:
         previous iterate (Magisano, Leonetti & Garcea, CMAME 2017), or the
         exact tangent (the Hessian of the energy) at every iteration.  The
         residual, hence the converged state, is the same; on thin sheets MIP
-        needs about a third fewer iterations (issue 17:
-        ``benchmarks/results/snap_mip_issue17_hmax0.08.txt``).  A converged solve always leaves the exact tangent factorised
-        (at the converged state if the last linearisation was a MIP one: one
-        more factorisation, not a Newton iteration), so that inertia checks
-        and tangent predictors see the Hessian.
+        needs fewer iterations
+        (``benchmarks/results/robustness/snap_mip_issue17_hmax0.08.txt``).  A
+        converged solve always leaves the exact tangent factorised, so that
+        inertia checks and tangent predictors see the Hessian.
     mip_threshold : float
         With ``"mip"``: the MIP matrix is used only after a step longer than
         this (largest nodal displacement, units of a); after shorter steps
@@ -219,14 +218,10 @@ class _SheetNewton(Problem):
         there (a back-substitution with the factorisation at hand).
 
         Where the residual is still above ``rtol`` but that correction is
-        below ``utol`` and at most half the last one (the iteration
-        contracts), the next iteration takes it as it is, with the
-        factorisation at hand (a chord step), instead of factorising the
-        tangent at ``w``: a thin sheet one correction of 1e-4 a from its
-        equilibrium still has residuals above ``rtol`` in the stiff membrane
-        directions, which the factorisation at a state that close removes
-        as well as a new one (the same rule as the continuation in L,
-        :func:`skfem_sheet.bistability._chord_linearization`; measured in
+        below ``utol`` and at most half the last one, the next iteration
+        takes it as it is (a chord step), instead of factorising the tangent
+        at ``w``: the rule of
+        :func:`skfem_sheet.bistability._chord_linearization` (the record:
         ``benchmarks/results/speed/solve_sample_hmax0.03_chord.txt``)."""
         r = self.last[1]
         rn = float(np.linalg.norm(r[self.free]))
@@ -251,17 +246,14 @@ def newton(problem, w, g, solver, options: NewtonOptions, stats: Stats,
     the sheet.  The first correction is made with the exact tangent, the
     later ones with ``options.linearization`` (by default the
     mixed-integration-point matrix, whose geometric stiffness carries the
-    stress linearised from the previous iterate: a bending step of a thin
-    sheet no longer leaves the spurious membrane stress of its linearised
-    rotation in the next tangent, which made the corrections alternate
-    large/small).  Full Newton steps, halved only where a trial point has an
-    inverted element (``det F <= 0``) or NaN.  A residual-norm (or Deuflhard
-    natural-monotonicity) line search was tried and rejected: a bending step
-    of a thin sheet leaves a large membrane residual that the *next* full
-    Newton step removes, so those tests cut good steps and doubled the
-    iteration counts.  Globalisation is the job of the load stepping
-    (:mod:`skfem_sheet.continuation`), which cuts the load step when Newton
-    fails here; an iteration whose correction (from the third on) exceeds
+    stress linearised from the previous iterate, so that a bending step of a
+    thin sheet leaves no spurious membrane stress of its linearised rotation
+    in the next tangent).  Full Newton steps, halved only where a trial point
+    has an inverted element (``det F <= 0``) or NaN; no line search (a
+    bending step of a thin sheet leaves a large membrane residual that the
+    *next* full step removes: ``docs/decisions.md``, "No line search").
+    Globalisation is the load stepping's (:mod:`skfem_sheet.continuation`);
+    an iteration whose correction (from the third on) exceeds
     ``max(10 first, 0.1)`` is stopped early as "diverging".
 
     Convergence: ``||r_free|| <= rtol ||f_gravity||`` and the next correction
@@ -385,11 +377,9 @@ def polish(problem, w, g, solver, stats: Stats, *, utol: float, max_iterations: 
     nodal displacement), at most ``max_iterations``.
 
     Stops early, keeping the state it has, where a correction is not finite,
-    inverts an element, exceeds ``first`` (the first one: ``w`` was not
-    solved to that tolerance) or does not shrink to at most half the previous
-    one (the factorisation is then too far from ``w``).  Used by
-    :func:`skfem_sheet.solve.solve` to bring every converged end state to
-    ``NewtonOptions.final_utol`` whatever route reached it.
+    inverts an element, exceeds ``first`` or does not shrink to at most half
+    the previous one.  :func:`skfem_sheet.solve.solve` brings every converged
+    end state to ``NewtonOptions.final_utol`` with it.
 
     Returns
     -------
@@ -440,19 +430,13 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
 
         (K(w) + sigma M) dw = -r(w)
 
-    with the displacement mass matrix ``M``: a damped, gradient-flow-like path
-    that is drawn to stable equilibria, turning into Newton as ``sigma -> 0``.
-    Used where a branch ends at a fold and the sheet must snap to the other
-    branch, which plain Newton cannot reach, and to leave an unstable
-    equilibrium.  The shift is controlled by the inertia of the shifted
-    tangent (``negatives``) and by the step length, never by ratios of
-    residual norms.
-
-    Stopping rule: a plain Newton step (``sigma = 0``) whose tangent has no
-    negative direction (or whose inertia the back-end cannot report) and
-    whose largest displacement is at most ``options.utol``.  This is meant as
-    a loose settle (e.g. ``utol = 1e-3``) to be followed by a tight
-    :func:`newton` solve from ``w``, which defines the end state.
+    with the displacement mass matrix ``M``: a damped path drawn to stable
+    equilibria, turning into Newton as ``sigma -> 0`` (the snap onto another
+    branch, which plain Newton cannot reach).  The shift is controlled by the
+    inertia of the shifted tangent (``negatives``) and the step length.  It
+    stops at a plain Newton step with no negative direction and a largest
+    displacement at most ``options.utol``: a loose settle, to be followed by
+    a tight :func:`newton` solve.
 
     Parameters
     ----------
@@ -470,9 +454,8 @@ def pseudo_transient(problem, w, g, solver, options: NewtonOptions, stats: Stats
     sigma_floor : float
         Smallest non-zero shift.
     max_decrease : float
-        Largest division of the shift after a full step that is much shorter
-        than ``radius`` (the engine's default quartering is 4; 64 lets the
-        shift fall from the 1e5-1e6 reached during a snap in a few steps).
+        Largest division of the shift after a full step much shorter than
+        ``radius`` (64 lets the large shift of a snap fall in a few steps).
 
     Returns
     -------

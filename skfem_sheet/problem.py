@@ -117,15 +117,11 @@ class SheetProblem:
         """The same problem for a sheet of another length, on the same mesh
         stretched in x (``x -> x length / mesh.length``).
 
-        The mesh topology, dof numbering and sparsity pattern are kept, so a
-        nodal solution at one length is a valid initial guess at the next:
-        the length is a continuous parameter of one discrete problem (used by
-        :mod:`skfem_sheet.bistability`).  The stretch is affine, so only the
-        x-derivatives of the basis, the volume weights, the node coordinates
-        and the loads change (:meth:`TaylorHoodSpace.stretched`).  The new
-        problem shares this one's :attr:`assembler` (the pattern, and the work
-        buffers under their lock).  Elements degrade when the stretch is
-        large; callers remesh beyond a factor of about 1.4.
+        The mesh topology, dof numbering and sparsity pattern are kept, so the
+        length is a continuous parameter of one discrete problem; only the
+        x-derivatives, volume weights, node coordinates and loads change
+        (:meth:`TaylorHoodSpace.stretched`), and the assembler is shared.
+        Callers remesh beyond the remesh rule's stretch.
         """
         space = self.space.stretched(length)
         return SheetProblem(self.sheet.replace(length=space.length), self.space.mesh,
@@ -136,10 +132,8 @@ class SheetProblem:
         """The same problem with the tip force ``force`` (total, positive
         upward, units of ``rho g a^3``) instead of :attr:`tip_force`.
 
-        The copy shares the space, the assembler and the constant blocks
-        (tangent, mass, :attr:`tip_load`: none depends on the load), so that
-        making it costs nothing; the tangent is the same, the residual gains
-        ``-force f`` and the energy ``-force w_tip``.
+        The copy shares the space, the assembler and the constant blocks; the
+        residual gains ``-force f`` and the energy ``-force w_tip``.
 
         Examples
         --------
@@ -371,12 +365,8 @@ class SheetProblem:
         Newton corrections of a load path; inertia, folds and continuation
         need the Hessian (``w_ref=None``, the default).
 
-        Its sparsity pattern is fixed for the problem's lifetime, and the zero
-        diagonal entries of the pressure block are stored explicitly.  The
-        element blocks are computed on chunks of elements in threads (numpy
-        releases the GIL), summed per global block pair (node-node 3 x 3 and
-        node-vertex 3 x 1) with two sparse products, and gathered into the
-        free-dof CSR data; the constant part is added to the summed blocks.
+        Its sparsity pattern is fixed for the problem's lifetime (the zero
+        diagonal of the pressure block stored); see :mod:`skfem_sheet.assembly`.
         """
         asm_ = self.assembler
         constant = self._tangent_constant()

@@ -125,30 +125,15 @@ class Result:
         Solved as the mirror-symmetric half (see :func:`~skfem_sheet.solve.solve`).
     branch : str
         ``"curvature-dominated"`` or ``"gravity-dominated"``: what the end
-        state is, read from the state itself (:mod:`skfem_sheet.analyses.mode`):
-        gravity-dominated where its transverse curvature relaxes inside the
-        sheet or its sag grows with the length ever more slowly along its
-        S-curve d(L) (``dd/dL > 0 > d^2d/dL^2``), curvature-dominated where
-        the curvature persists to the tip and the sag grows ever faster or
-        the tip rises; a flat clamp is gravity-dominated, a sheet without
-        gravity curvature-dominated.  One state has one name whichever path
-        reached it, and the two stable states of a bistable sheet have the
-        two names.  The load path's history is ``snaps``.  (A result that
-        did not reach full load is named by its history: its path's own
-        branch, switched at each snap.)
+        state is, read from the state itself (:mod:`skfem_sheet.analyses.mode`),
+        one name per state whichever path reached it (a result short of full
+        load is named by its path's branch, switched at each snap).
     stable : bool or None
-        Whether the equilibrium is stable against every perturbation: the
-        constrained Hessian (the tangent on the incompressible subspace) is
-        positive definite, read off the inertia of the tangent at the end
-        state (``None`` if the linear solver cannot tell).  A symmetric solve
-        counts both halves of the whole sheet's spectrum: the half model's
-        own (mirror-symmetric perturbations) and the antisymmetric problem's
-        on the same half mesh (the mirror's other condition,
-        :func:`~skfem_sheet.analyses.stability.antisymmetric_stability`, one
-        more factorisation); True only when both counts are zero.  A
-        converged result is never known to be unstable (the solve fails
-        instead, and says which perturbation and, for an antisymmetric one,
-        which kind of mode).
+        Whether the constrained Hessian is positive definite, from the
+        inertia of the tangent (``None`` if the linear solver cannot tell); a
+        symmetric solve counts the antisymmetric problem's spectrum too
+        (:func:`~skfem_sheet.analyses.stability.antisymmetric_stability`).  A
+        converged result is never known to be unstable (the solve fails).
     negative_eigenvalues : tuple or None
         ``(symmetric, antisymmetric)``: negative eigenvalues of the
         constrained Hessian for mirror-symmetric and mirror-antisymmetric

@@ -1,38 +1,20 @@
 """The sheet as a problem of the continuation engine.
 
 The engine's drivers (:mod:`skfem_sheet.engine`) see a problem through its
-protocol: a state ``u``, parameters ``p``, ``residual``, ``jacobian``,
-``factorize``, ``dresidual``, norms and an inner product.
-:class:`SheetEngineProblem` is what every adapter of the discrete sheet (a
-:class:`~skfem_sheet.problem.SheetProblem`) to that protocol shares:
+protocol (:mod:`skfem_sheet.engine.protocol`).  :class:`SheetEngineProblem`
+is what every adapter of the discrete sheet to it shares: the state ``u`` is
+the vector of free dofs (:meth:`~SheetEngineProblem.full` adds the clamp
+values); ``residual`` the free rows of ``dPi/dw`` (NaN where an element
+inverts); ``jacobian`` the Hessian; ``factorize`` **the one lazy
+refactorisation** (a factorisation used after its solver has factorised
+something else is factorised again first, counted), its inertia the negative
+eigenvalues of the constrained Hessian where known; the norms of
+:mod:`skfem_sheet.newton` and the arclength inner product (the mean square
+of the displacements plus the tip's vertical displacement squared).
 
-- the state ``u`` is the vector of free dofs; :meth:`~SheetEngineProblem.full`
-  adds the clamp values of the clamp curvature a/R of ``p``;
-- ``residual(u, p)``: the free rows of ``dPi/dw`` (NaN where an element
-  inverts, so that the corrector halves the step), the last few kept (the
-  corrector asks again for the residual at the point it just evaluated);
-- ``jacobian(u, p)``: the tangent (the Hessian of the energy);
-- ``factorize(J)``: on the adapter's linear solver(s), returning a
-  :class:`Factorization` -- **the one lazy refactorisation**: a solver holds
-  one factorisation at a time, so a factorisation used after its solver has
-  factorised something else is factorised again first (counted);
-  its inertia is the number of negative eigenvalues of the constrained
-  Hessian (:func:`~skfem_sheet.analyses.stability.stability`), read when it is
-  made, unknown (None) for a matrix that is not the Hessian or when PARDISO
-  perturbed pivots;
-- the norms of :mod:`skfem_sheet.newton` (residual relative to the full
-  weight, corrections as the largest displacement) and the arclength inner
-  product: the mean square of the displacements plus the square of the tip's
-  vertical displacement (pressures left out).
-
-Three kinds of parameters: :class:`SheetLoadProblem` (here) has the loads
-``p = (curvature, gravity)`` on one mesh (the load paths of
-:mod:`skfem_sheet.continuation`); :class:`SheetForceProblem` (here) has the
-tip force ``p = (tip_force,)`` at fixed loads on one mesh (the
-force-deflection curves of :mod:`skfem_sheet.switch`);
-:class:`skfem_sheet.sheet_shape.SheetShapeProblem`
-has the shape ``(L, b, a/R)`` at full load, on a mesh mapped to it and
-remeshed (bistability, fold curves and paths through parameter space).
+:class:`SheetLoadProblem` has the loads ``p = (curvature, gravity)`` (the load
+paths), :class:`SheetForceProblem` the tip force (:mod:`skfem_sheet.switch`),
+:class:`skfem_sheet.sheet_shape.SheetShapeProblem` the shape ``(L, b, a/R)``.
 Every factorisation, assembly and linear solve is counted in the adapter's
 :class:`~skfem_sheet.newton.Stats`.
 """
@@ -341,13 +323,11 @@ class SheetForceProblem(SheetEngineProblem):
     """One discrete sheet at fixed loads as an engine problem in its tip
     force, ``p = (F / force_unit,)``.
 
-    The tip force ``F`` (total, positive upward, units of ``rho g a^3``) is
-    a dead load spread uniformly over the tip face ``x = L``
+    The tip force ``F`` (total, positive upward, units of ``rho g a^3``) is a
+    dead load over the tip face
     (:meth:`~skfem_sheet.problem.SheetProblem.with_tip_force`): the residual
-    is ``R(u) - F f`` with the face's traction vector ``f`` at unit force, so
-    that ``dR/dF = -f`` exactly and the tangent does not depend on ``F``.
-    States, norms and the arclength inner product are those of every sheet
-    adapter (:class:`SheetEngineProblem`).
+    is ``R(u) - F f``, so ``dR/dF = -f`` exactly and the tangent does not
+    depend on ``F``.
 
     Parameters
     ----------
@@ -361,18 +341,13 @@ class SheetForceProblem(SheetEngineProblem):
     stats : ~skfem_sheet.newton.Stats, optional
     force_unit : float
         The unit of the parameter (``rho g a^3``; default 1): ``p[0] = F /
-        force_unit`` (an attribute: it may be changed between continuations).  The arclength norm weighs the parameter against the
-        state's displacements (in a) by it: a unit of the order of the
-        forces that move the sheet by a fraction of a spreads a curve's
-        points evenly between its stiff and its soft parts.
+        force_unit`` (an attribute, changeable between continuations); the
+        arclength norm weighs the parameter against the displacements by it.
     tip_norm : bool
-        The arclength inner product on the vertical displacement of the
-        tip's centre alone (default False: with the mean square of all
-        displacements, :meth:`SheetEngineProblem.dual`): arclength steps
-        along the plotted curve of ``p`` against the tip, and a step
-        control by the bending (the tangent's turn,
-        :func:`~skfem_sheet.engine.arclength`'s ``turn``) that follows that
-        curve's bends, not the turning of the sheet's mode shapes.
+        The arclength inner product on the tip centre's vertical displacement
+        alone (default False: :meth:`SheetEngineProblem.dual`), so that steps
+        and the bending control follow the plotted curve of ``p`` against
+        the tip.
 
     Examples
     --------

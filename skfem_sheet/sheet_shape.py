@@ -8,42 +8,27 @@ and the paths of :mod:`skfem_sheet.paths` run on it.  It is a
 :class:`~skfem_sheet.sheet_engine.SheetEngineProblem` (state, norms, the one
 lazy refactorisation); what it adds is the shape:
 
-- **One mesh, carried to nearby shapes.**  The sheet is meshed once, at
-  ``(L_m, b_m)``, and the problem at ``(L, b)`` is that mesh carried there,
-  with the same tetrahedra, dof numbering and sparsity pattern, so that a
-  nodal state at one shape is a valid state at the next.  Two ways
-  (``geometry``): ``"stretch"`` (the length only: ``x' = x L / L_m``,
-  :meth:`~skfem_sheet.problem.SheetProblem.with_length`, exact and cheap;
-  ``dR/dL`` a central difference on the stretch, ``dR/d(a/R)`` exact) and
-  ``"map"`` (length and tip width: also ``y' = y p_b(xi) / p_{b_m}(xi)``
-  with ``xi = x / L`` and the width profile ``p_b(xi) = 1 + (b - 1) xi``,
-  which takes the trapezoid onto the trapezoid exactly, element by element,
-  :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.mapped`; every
-  ``dR/dp_i`` a forward difference from the residual at ``p``, as the fold
-  system wants them, ``fd_one_sided``).  The two agree to round-off where
-  both apply; each caller keeps the one its numbers were recorded with.
-- **One remesh rule.**  Beyond a stretch of :data:`REMESH_STRETCH` in x
-  (or its inverse) or a tip squeezed below :data:`REMESH_SQUEEZE` of the
-  mesh's (or widened beyond its inverse), the sheet is meshed afresh at the
-  current shape and the state interpolated onto the new mesh
-  (:func:`~skfem_sheet.analyses.transfer.transfer`, memory linear in the
-  mesh): in place (:meth:`SheetShapeProblem.remesh`, for a continuation that
-  holds its problem) or as a new problem (:meth:`SheetShapeProblem.remeshed`,
-  for fold curves, whose points keep the mesh they were found on).
+- **One mesh, carried to nearby shapes**, with the same tetrahedra, dof
+  numbering and sparsity pattern, so that a nodal state at one shape is
+  valid at the next: ``geometry="stretch"`` (the length only,
+  :meth:`~skfem_sheet.problem.SheetProblem.with_length`; ``dR/dL`` a central
+  difference) or ``"map"`` (length and tip width, ``y' = y p_b(xi) /
+  p_{b_m}(xi)``, :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.mapped`;
+  forward differences, ``fd_one_sided``).  The two agree to round-off where
+  both apply.
+- **One remesh rule**: beyond a stretch of :data:`REMESH_STRETCH` in x (or
+  its inverse) or a tip squeezed below :data:`REMESH_SQUEEZE` (or widened
+  beyond its inverse), the sheet is meshed afresh at the current shape and
+  the state transferred (:func:`~skfem_sheet.analyses.transfer.transfer`), in
+  place (:meth:`SheetShapeProblem.remesh`) or as a new problem
+  (:meth:`SheetShapeProblem.remeshed`).
 
-Why 1.35.  A stretched mesh carries a discretisation error of its own that
-grows with the stretch: at hmax 0.1 (the rectangle at a/R 2.5) the pop-up
-fold L0* located on a mesh made at 0.95 and stretched x1.27 to it is 0.0048
-longer than on meshes made within 5% of it, at x1.15 0.0022 longer, and
-the meshes made within 5% agree to 1.5e-4
-(``benchmarks/results/robustness/fold_curve_remesh_hmax0.1.txt``).  Up to
-1.35 that error stays at about the fold resolution of
-:func:`~skfem_sheet.bistability.fold_lengths` (``tol`` 0.005); each remesh
-costs a mesh, a space, an assembler and a transferred state that must
-converge again, so the limit is not tighter.  The squeeze limit 0.5 lets a
-fold curve in b run from b = 1 down to its cusp (near 0.63 at a/R 2.5) on
-one mesh; the map is admissible (:meth:`SheetShapeProblem.admissible_parameters`)
-down to :data:`MIN_SQUEEZE`, where trial steps may go.
+The limits (1.35, 0.5): a stretched mesh carries a discretisation error of
+its own that grows with the stretch, kept at about the fold resolution of
+:func:`~skfem_sheet.bistability.fold_lengths`, while each remesh costs a
+mesh, a space, an assembler and a state that must converge again
+(``docs/decisions.md``, "The remesh limits"); the map is admissible
+(:meth:`SheetShapeProblem.admissible_parameters`) down to :data:`MIN_SQUEEZE`.
 """
 from __future__ import annotations
 

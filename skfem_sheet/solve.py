@@ -93,21 +93,16 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
     layers : int, optional
         Number of element layers through the thickness.
     refine : int
-        Nested mesh refinement, 0 to 4 (default 0): the mesh made at ``hmax``
-        with ``layers`` layers has every edge halved ``refine`` times in all
-        three directions (each triangle of the plan split into four,
-        ``layers * 2**refine`` layers; 8x the elements per step).  Meshes with
-        the same ``hmax`` and ``layers`` and increasing ``refine`` are nested:
+        Nested mesh refinement, 0 to 4 (default 0): every edge of the mesh
+        made at ``hmax`` halved ``refine`` times (8x the elements per step),
         the clean sequence for convergence studies.
     solver : {"auto", "pardiso", "superlu"}
         Linear-solver back-end (see :mod:`skfem_sheet.linalg`).
     quadrature_order : {2, 3, 4}
     symmetric : bool
-        Solve the mirror-symmetric half ``y >= 0`` with ``U_y = 0`` on
-        ``y = 0`` (default): half the unknowns, the same answer to round-off
-        whenever the equilibrium is symmetric (its mesh is exactly the half of
-        the full one).  ``False`` solves the whole sheet, which also admits
-        asymmetric (e.g. twisting) shapes and perturbations.
+        Solve the mirror-symmetric half ``y >= 0`` (default: half the
+        unknowns, the same answer to round-off for a symmetric equilibrium);
+        ``False`` solves the whole sheet, which admits asymmetric shapes.
     newton_options : NewtonOptions, optional
         Newton's tolerances (of the end state, the folds and the snaps) and
         the final polish (``final_utol``).
@@ -123,38 +118,25 @@ def solve(sheet: Sheet, path: str = "curvature-first", hmax: float = 0.03, *,
         (``series.write`` writes them as a ParaView series).
     start : {"coarse", "path"} or a start strategy
         How full load is reached (:mod:`skfem_sheet.starts`): ``"coarse"``
-        (default, :class:`~skfem_sheet.starts.CoarseStart` with
-        ``coarse_hmax``): the load path on a coarse mesh, its located folds
-        located again on the mesh ``hmax`` (the sheet snaps there where the
-        fine fold lies inside its phase) and its end state finished there by
-        Newton; ``"path"`` (:class:`~skfem_sheet.starts.PathStart`): the load
-        path on the mesh ``hmax``.  Both reach the same equilibrium
-        (``Result.start_record`` says what happened, and why the coarse path
-        was not used where it was not).
+        (default, :class:`~skfem_sheet.starts.CoarseStart`: the load path on
+        a coarse mesh, carried to the mesh ``hmax`` by its located folds) or
+        ``"path"`` (:class:`~skfem_sheet.starts.PathStart`: the load path on
+        the mesh ``hmax``); both reach the same equilibrium
+        (``Result.start_record`` says how).
     coarse_hmax : float, optional
-        Mesh size of the coarse path of ``start="coarse"``; by default
-        twice ``hmax``, at least 0.1 and at most 0.2
-        (:meth:`~skfem_sheet.starts.CoarseStart.coarse_mesh`).  It runs only
-        where it is at least twice as coarse as ``hmax``
-        (``CoarseStart.min_coarsening``): from hmax 0.1 down.
+        Mesh of the coarse path (default
+        :meth:`~skfem_sheet.starts.CoarseStart.coarse_mesh`).
     gravity : float
         The gravity load as a fraction of the sheet's own weight, in [0, 10]
         (default 1; 0: no gravity, the clamp's curvature alone, one phase
         on both paths).
     sensitivities : iterable of str or str
-        Parameters to differentiate the converged state's outputs (tip
-        deflection, energy, tip angle) by: names from ``modulus``,
+        Parameters to differentiate the outputs by, from ``modulus``,
         ``thickness``, ``curvature``, ``gravity``, ``length``, ``tip_width``
-        (:mod:`skfem_sheet.analyses.sensitivity`: one back-substitution per
-        parameter with the solve's factorisation, plus the residual's
-        derivative in each).  ``Result.sensitivities`` holds them (None
-        without; not counted in ``wall_time_s``).
+        (:mod:`skfem_sheet.analyses.sensitivity`; ``Result.sensitivities``).
     chain : BuildChain, optional
-        Builds the meshes, spaces and assemblers of the solve (its own and the
-        coarse start's) and keeps them for the next solve given the same
-        chain (:mod:`skfem_sheet.build`): a study solving many sheets on few
-        meshes passes one.  Default: a chain of this solve's own, dropped
-        with it.
+        Builds the meshes, spaces and assemblers and keeps them for the next
+        solve given the same chain (:mod:`skfem_sheet.build`).
 
     Returns
     -------

@@ -8,34 +8,19 @@ a :class:`Reached` (the end state at full load and its history):
     of the solve;
 :class:`CoarseStart`
     the load path on a coarse mesh, carried to the mesh of the solve by the
-    same rule that decides a snap there: every fold the coarse path located
-    is transferred (state and null vector) and located again on the fine mesh
-    with the minimally augmented test function
-    (:func:`~skfem_sheet.engine.fold.fold_on_branch`, a few factorisations).
-    The fine fold must be of the coarse one's kind, a fold where the load
-    turns back (the branch's solutions below it); one where the load turns up
-    is the other fold of a fold pair the fine mesh has there, where a branch
-    begins, and nothing snaps there.  A fine fold inside its phase: the fine
-    sheet snaps there too (its fold load and deflections are the fine
-    mesh's), once however many coarse folds lead to it (a snap in steps on
-    the coarse mesh is one on the fine mesh: the sheet lands where the last of
-    them landed, and a carried landing that Newton takes back to the fine
-    fold state is no landing).  A coarse fold the fine mesh has not nearby
-    (not located, or located where the load turns up) resumes the fine path
-    from the coarse branch's last point before it.  A fine fold beyond the
-    phase's full load: it does not, and the fine branch before the fold is finished
-    at full load of that phase (predicted from the fold's quadratic normal
-    form, solved by Newton) and the load path goes on from there on the fine
-    mesh.  Without (more) folds the coarse end state is transferred and
-    finished by Newton at full load (where Newton leaves its basin, by the
-    pseudo-transient settle of a snap and Newton, :func:`~skfem_sheet.continuation.settle`; where
-    that fails after a carried snap, by the load path on the fine mesh from
-    the last snap's landing state), accepted by the load path's step rule
-    (its distance from the carried state at most four times the nominal
-    corrector distance: it stayed on the coarse path's branch) and verified
-    stable; otherwise the load path runs on the fine mesh instead (the
-    record says why).  On a curved outline the two meshes' polygons differ
-    by their chord errors, and the states are carried between them as
+    rule that decides a snap there: every fold the coarse path located is
+    transferred (state and null vector) and located again on the fine mesh
+    (:func:`~skfem_sheet.engine.fold.fold_on_branch`).  A fine fold of the
+    coarse one's kind (the load turns back) inside its phase: the fine sheet
+    snaps there, and lands where the last coarse fold leading to it landed.
+    A coarse fold the fine mesh has not nearby resumes the fine path from the
+    coarse branch's last point before it; a fine fold beyond the phase's full
+    load: the fine branch is finished at full load from the fold's quadratic
+    normal form.  Without (more) folds the coarse end state is transferred
+    and finished by Newton (or by :func:`~skfem_sheet.continuation.settle`
+    where Newton leaves its basin), accepted by the load path's step rule and
+    verified stable; otherwise the load path runs on the fine mesh (the
+    record says why).  States are carried between the meshes as
     :func:`~skfem_sheet.analyses.transfer.transfer` says.
 
 The coarse mesh is by default twice the mesh of the solve, at least 0.1 and
@@ -44,22 +29,13 @@ at most 0.2 (:meth:`CoarseStart.coarse_mesh`): hmax 0.1 for the paper's
 of its own by the same rule (hmax 0.05 and finer: 0.1, and below it 0.2),
 the coarse path is itself reached that way: the path runs on 0.2, and its
 folds and end state are carried to 0.1 and from there to the mesh of the
-solve (``StartRecord.levels``).  Measured at hmax 0.03 on the solve
-sample (``benchmarks/results/speed/solve_sample_hmax0.03_nested.txt``):
-the coarse work fell from a median of 1.16 fine factorisations (by time; max
-2.70) to 0.49 (max 0.98), the wall median from 7.8 s to 6.4 s, the end
-states the same; the long sheets' end states carried from 0.2 to 0.1 (0.05
-apart) are outside Newton's basin and settled.  A fold that the fine mesh has and the
-coarse one has not is not found: the end state is then still the fine
-mesh's (Newton from the coarse one, on the branch the snap lands on), but
-``snaps`` lacks that snap and ``branch`` is the path's own.  Near the cusp
-of a sheet's bistable range the fold pair is thin, and the coarse path's
-steps used to cross it whole (measured at hmax 0.1 from 0.2: L 0.985, b
-0.840, a/R 5.71 and L 1.15, b 0.7, a/R 4.6, gravity-first, whose fold pairs
-hmax 0.2 has at 0.2421 and 0.4409 of the curvature ramp); the load path's
-search at the minima of the load's rate
-(:mod:`~skfem_sheet.engine.loadpath`) finds them.  With it the stress set's
-224 solves at hmax 0.1 snap as the path on hmax 0.1 does, 224 of 224
+solve (``StartRecord.levels``; the record: ``docs/decisions.md``, "Nested
+coarse starts").  A fold that the fine mesh has and the coarse one has not
+is not found: the end state is then still the fine mesh's (Newton from the
+coarse one, on the branch the snap lands on), but ``snaps`` lacks that snap
+and ``branch`` is the path's own.  Near the cusp of a sheet's bistable range
+the fold pair is thin; the load path's search at the minima of the load's
+rate (:mod:`~skfem_sheet.engine.loadpath`) finds it on the coarse mesh too
 (``benchmarks/results/robustness/stress_n100_seed1_hmax0.1_coarseauto.txt``).
 ``start="path"`` records every fold of its mesh.
 """
@@ -190,14 +166,13 @@ class PathStart:
 
 
 #: The coarse path's mesh for fine meshes up to half as large (the automatic
-#: choice of :class:`CoarseStart`; issue 16's measurements at hmax 0.03).
+#: choice of :class:`CoarseStart`; ``docs/decisions.md``, "Nested coarse starts").
 COARSE_HMAX = 0.1
 
 #: The coarsest mesh an automatic coarse path runs on: twice the mesh of the
 #: solve from hmax 0.05 to 0.1.  Not coarser: at 0.2 fewer than three
 #: elements span the half width, and the fold loads already move with the
-#: mesh by 0.02-0.05 in L (``fold_curve_remesh_hmax0.2.txt``).  Measured at
-#: hmax 0.1 from 0.2: see the module.
+#: mesh by 0.02-0.05 in L (``fold_curve_remesh_hmax0.2.txt``).
 COARSEST_HMAX = 0.2
 
 
@@ -220,9 +195,7 @@ class CoarseStart:
         the mesh size of the solve: a factorisation costs about the square
         of the unknowns' ratio of the two meshes in 2D-like fill (the sheet is
         thin), so closer meshes make the coarse path cost as much as the path
-        on the fine mesh (the load path runs there instead).  Measured: at
-        hmax 0.08 from 0.1 the sheet L 1.299, b 0.633, a/R 5.112 took 98
-        coarse + 38 fine Newton iterations against 75 for the path.
+        on the fine mesh (the load path runs there instead).
 
     Examples
     --------
@@ -379,9 +352,6 @@ class CoarseStart:
                 # fold with its solutions above it is where a branch begins as
                 # the load grows -- the lower fold of a fold pair that the fine
                 # mesh has near the coarse fold -- and nothing snaps there
-                # (measured: L 1.63, b 0.65, a/R 3.37, h 0.02, curvature-first
-                # at hmax 0.1 from 0.2: the coarse fold at 0.2349 carried to the
-                # fine pair's lower fold at 0.1814, the fine path's fold at 0.2185)
                 why = (f"the coarse fold in the {name} phase at {fold.snap.load:.6g} was "
                        f"located on hmax {hmax:g} at {located.value:.6g}, a fold where the "
                        f"load turns up (a branch begins there), not where the sheet snaps")
@@ -453,9 +423,7 @@ class CoarseStart:
                   res.reason, np.round(res.corrections, 5).tolist())
         iterations = res.iterations
         if not res.converged:
-            # outside Newton's basin (measured: the long sheets' end states
-            # carried from hmax 0.2 to 0.1, 0.05 apart, Newton diverging):
-            # settled by the pseudo-transient, drawn to stable states, and
+            # outside Newton's basin: settled by the pseudo-transient, drawn to stable states, and
             # accepted by the same rule as Newton's (the distance from the
             # carried state: as Newton's, a check of the end state, which
             # also keeps it on the coarse path's branch where the fine sheet
@@ -573,9 +541,8 @@ def _fold_on_fine(cproblem, fold, sheet, phase, tol, ptol):
     counter = Counting(phase)
     p = np.array([fold.snap.load])
     try:
-        # on the branch (measured: Newton on the fold system from the carried
-        # state first cost 3-8 factorisations more on the sample's snapping
-        # sheets at hmax 0.03, failing from most of them)
+        # on the branch first, the cheaper of the two located folds
+        # (docs/decisions.md, "A carried fold is located on the branch")
         located, _ = fold_on_branch(counter, u, p, 0, v, tol=tol, ptol=ptol)
         if located is None:
             located, _ = locate_fold(counter, u, p, 0, v0=v, tol=tol, approach=8)

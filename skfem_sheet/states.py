@@ -14,9 +14,9 @@ property of the state), so a bistable pair carries two.  The command line's twin
 Whether the end states differ is decided on the states themselves, not on the
 names of the branches: the largest distance between the two deformed
 positions of a node, ``separation`` (in base widths), against ``same_tol``.
-Outside the bistable range both paths reach one state (measured at hmax 0.1,
-the rectangle at a/R = 2.5: 2e-16 apart at L/a = 0.8 and 1e-15 at L/a = 2;
-0.65 apart at L/a = 1.3, inside it).
+Outside the bistable range both paths reach one state, to round-off; inside
+it the two states are apart by a fraction of the width
+(``docs/decisions.md``, "Two states are told apart by their positions").
 """
 from __future__ import annotations
 

@@ -1,68 +1,35 @@
 """How hard is it to switch? The tip force that snaps a bistable sheet, and the barrier.
 
-A bistable sheet (paper: "applying a temporary gentle force could change the
-configuration from one apparently stable state to the other") has, at zero
-load, two stable equilibria -- the curvature-dominated (aloft) state and the
-gravity-dominated (drooped) one -- and between them an unstable one, the
-**saddle** of the energy landscape that a switch passes over.  A vertical tip
-force ``F`` (:meth:`~skfem_sheet.problem.SheetProblem.with_tip_force`: a
-dead load spread uniformly over the tip face ``x = L``, total ``F``, positive
-upward, units of ``rho g a^3``) connects the three: the curve of equilibria in
-``F`` is an S.  From the aloft state at ``F = 0``, pushing down (``F < 0``),
-the aloft branch ends at a fold in ``F``: its load is the **switching force
-down** ``F_down < 0``, the largest push the aloft state withstands.  Past the
-fold the curve runs back along the unstable branch (one negative eigenvalue
-of the constrained Hessian), through ``F = 0`` at the saddle, on to the other
-fold, the **switching force up** ``F_up > 0``, and back to ``F = 0`` on the
-drooped state.  :func:`force_curve` traces that curve by pseudo-arclength
-continuation in ``F`` (:func:`skfem_sheet.engine.arclength`, the sheet as the
-engine problem :class:`~skfem_sheet.sheet_engine.SheetForceProblem`), with
-the inertia of every point, and locates each fold on the branch with the
-minimally augmented test function (:func:`~skfem_sheet.engine.fold.fold_on_branch`;
-Newton on the whole fold system, :func:`~skfem_sheet.engine.locate_fold`,
-where that fails).
+A bistable sheet has, at zero load, two stable equilibria (aloft and
+drooped) and between them the unstable **saddle** of the energy that a
+switch passes over.  A vertical tip force ``F``
+(:meth:`~skfem_sheet.problem.SheetProblem.with_tip_force`: a dead load over
+the tip face, positive upward, units of ``rho g a^3``) connects the three on
+an S-shaped curve of equilibria: the aloft branch ends at the fold
+``F_down < 0`` (the **switching force down**), the unstable branch passes
+``F = 0`` at the saddle, and the drooped branch ends at ``F_up > 0``.
+:func:`force_curve` traces it by pseudo-arclength continuation in ``F``
+(:class:`~skfem_sheet.sheet_engine.SheetForceProblem`) with the inertia of
+every point, and locates each fold on the branch
+(:func:`~skfem_sheet.engine.fold.fold_on_branch`, else
+:func:`~skfem_sheet.engine.locate_fold`).
 
-The **barriers** are energies at ``F = 0``: ``barrier_down = Pi(saddle) -
-Pi(aloft)`` and ``barrier_up = Pi(saddle) - Pi(drooped)`` (``Pi`` the sheet's
-own energy, elastic and gravitational; units of ``rho g a^4``), the work the
-tip force must do to switch each state quasi-statically.
+The **barriers** ``barrier_down = Pi(saddle) - Pi(aloft)`` and
+``barrier_up = Pi(saddle) - Pi(drooped)`` (units of ``rho g a^4``) are the
+work a quasi-static switch takes.  The tests check: the work identity
+``dPi = F dw_tip`` along the curve (integrated in ``w_tip`` with the tip
+stiffness ``k = dF/dw_tip``, Hermite cubics); the saddle equal to the S-curve
+in L's middle state (:func:`skfem_sheet.bistability.s_curve`); and the
+saddle-node scaling near ``L1*`` (and ``L0*``): ``F_down ~ L1* - L``,
+``barrier_down ~ (L1* - L)^{3/2}`` (normal form ``a x^3/3 - mu x - F x``).
 
-What the mathematics says, and what the tests check:
-
-- **Work.** Along equilibria ``dPi = F dw_tip`` (``w_tip`` the tip face's mean
-  vertical displacement, upward, the load's work-conjugate), so
-  ``Pi(saddle) - Pi(aloft) = int F dw_tip`` along the curve.  The curve is
-  integrated in ``w_tip`` with the slope ``k = dF/dw_tip`` at every point
-  (the tip stiffness, ``1 / (dw_tip/dF)``, one back-substitution: Hermite
-  cubics, exact to fourth order; ``k = 0`` at a fold, ``k < 0`` on the
-  unstable branch).
-- **The saddle** is the unstable middle state of the S-curve in the length
-  (:func:`skfem_sheet.bistability.s_curve`) at the sheet's own length: both
-  are the one equilibrium with one negative eigenvalue between the stable
-  ones.
-- **Scaling near a fold of the family in L.**  Near the standout length
-  ``L1*`` the aloft state and the saddle meet in a saddle-node: ``F_down``
-  vanishes like ``L1* - L`` and ``barrier_down`` like ``(L1* - L)^{3/2}``
-  (normal form ``Pi = a x^3 / 3 - mu x - F x``, ``mu ~ L1* - L``); the same
-  for ``F_up`` and ``barrier_up`` at the pop-up length ``L0*``.
-
-:func:`switching` is the analysis of one :class:`~skfem_sheet.params.Sheet`:
-the aloft state by :func:`~skfem_sheet.solve.solve` (curvature-first), the
-curve traced on the mesh ``curve_hmax`` (by default 0.1 where ``hmax`` is
-finer: the S's shape and the starting points), and the folds, the saddle
-and the drooped state located again on the mesh ``hmax`` from the curve's
-states carried there (:func:`~skfem_sheet.analyses.transfer.transfer`): a
-few factorisations each.  Where the carried points do not converge, or the
-coarse curve is not one S, the curve is traced on ``hmax`` itself (the
-answer is always the mesh ``hmax``'s).  :func:`apply_tip_force` is the
-force-controlled solve: the tip force ramped from zero on a solved state,
-with a snap where a fold is met.
-
-The half model (``symmetric=True``, the default) keeps the sheet
-mirror-symmetric: a switch through an asymmetric (twisting) state, if one
-has a lower barrier, is seen only on the whole sheet (``symmetric=False``),
-where a branch point of the S shows as a change of the inertia without a
-turn in ``F`` (reported in :attr:`ForceCurve.notes`).
+:func:`switching` analyses one :class:`~skfem_sheet.params.Sheet`: the curve
+on the mesh ``curve_hmax``, the folds, saddle and drooped state located
+again on ``hmax`` from the carried states (the curve traced on ``hmax``
+itself where they do not converge).  :func:`apply_tip_force` is the
+force-controlled solve.  The half model (``symmetric=True``) sees no switch
+through an asymmetric state; on the whole sheet a branch point shows as an
+inertia change without a turn (:attr:`ForceCurve.notes`).
 """
 from __future__ import annotations
 
@@ -206,9 +173,8 @@ class ForceCurve:
         ``"one S"`` (two folds, one negative eigenvalue between them and none
         outside), or what it is instead (the notes say more).
     notes : tuple of str
-        What a reader must know: more folds than an S has, an inertia that
-        changes without a turn in F (a branch point), a fold not confirmed
-        by the inertia, a tip that turns (``w_tip`` not monotone).
+        More folds than an S has, an inertia change without a turn (a branch
+        point), a fold not confirmed by the inertia, a tip that turns.
     factorizations : int
     wall_time_s : float
     problem : SheetProblem
@@ -445,16 +411,13 @@ def force_curve(problem, w, curvature: float, *, gravity: float = 1.0, direction
 
     Pseudo-arclength continuation in F (:func:`skfem_sheet.engine.arclength`)
     from ``w`` in ``direction``, in the plane of the tip's vertical
-    displacement and the parameter ``F / F_u`` (``F_u`` the force that moves
-    the start's tip by :data:`FORCE_UNIT` a), with the steps controlled by
-    the curve's bending there (``turn``), until F comes back to 0 (a crossing: the equilibrium
-    there solved at F = 0 exactly), then on from that state the same way,
-    until F comes back to 0 again; each segment ends too where ``|F|``
-    exceeds ``max_force`` times the sheet's weight.  Between two points
-    whose tangents turn in F the fold is located on the branch
+    displacement and ``F / F_u`` (``F_u`` moves the start's tip by
+    :data:`FORCE_UNIT` a), steps controlled by the curve's bending
+    (``turn``), to the first crossing of F = 0 (solved there exactly) and on
+    to the second; a segment also ends where ``|F|`` exceeds ``max_force``
+    weights.  Folds are located on the branch
     (:func:`~skfem_sheet.engine.fold.fold_on_branch`, to
-    :data:`FOLD_TOLERANCE`).  Every point carries the inertia of its
-    factorised tangent and the slope ``dF/dw_tip`` (one back-substitution).
+    :data:`FOLD_TOLERANCE`); every point carries its inertia and ``dF/dw_tip``.
 
     Parameters
     ----------
@@ -669,9 +632,8 @@ class Switching:
     curve : ForceCurve
         The force-deflection curve (on its own mesh, ``curve.hmax``).
     work_down, work_up : float
-        ``int F dw_tip`` along the curve from the aloft state to the saddle,
-        and from the drooped state to the saddle: the barriers on the curve's
-        mesh by the work identity.
+        ``int F dw_tip`` from the aloft (drooped) state to the saddle: the
+        barriers on the curve's mesh by the work identity.
     curve_barrier_down, curve_barrier_up : float
         The barriers on the curve's mesh, from its states' energies.
     si : SIScale or None
@@ -855,15 +817,12 @@ def switching(sheet: Sheet, hmax: float = 0.03, *, curve_hmax: float | None = No
               progress: bool = False, chain: BuildChain | None = None) -> Switching:
     """The switching forces and energy barriers of one sheet.
 
-    The sheet is solved curvature-first (:func:`~skfem_sheet.solve.solve`:
-    the aloft state where it exists), then the force-deflection curve is
-    traced from that state (:func:`force_curve`, pushing down; pulling up if
-    the solve ended drooped) on the mesh ``curve_hmax``; where that is
-    coarser than ``hmax``, its folds, its saddle and its other state at F = 0
-    are carried to the mesh ``hmax`` and located there again (the fold on
-    the branch from the carried fold state and null vector, the states by
-    Newton at F = 0), and where that fails, or the coarse curve is not one
-    S, the curve is traced on ``hmax``.
+    The sheet is solved curvature-first, the force-deflection curve traced
+    from that state (:func:`force_curve`, pushing down; pulling up if it
+    ended drooped) on ``curve_hmax``; where that is coarser than ``hmax`` its
+    folds, saddle and other state at F = 0 are located again on ``hmax``
+    (where that fails, or the coarse curve is not one S, the curve is traced
+    on ``hmax``).
 
     Parameters
     ----------
@@ -1190,11 +1149,9 @@ def apply_tip_force(result: Result, force: float, *, solver: str = "auto",
     """The force-controlled solve: ramp the tip force from 0 to ``force`` on
     the end state of a solve.
 
-    The load ramp of the load paths (:func:`skfem_sheet.engine.ramp`) in F
-    at full load; where the branch turns in F (a fold, located) the sheet
-    snaps as on a load path (:func:`~skfem_sheet.continuation.snap_from_fold`:
-    off the fold downhill along its null vector, settled onto the stable
-    state at the fold's force) and the ramp goes on from there.
+    The load paths' ramp (:func:`skfem_sheet.engine.ramp`) in F at full
+    load; at a fold the sheet snaps as on a load path
+    (:func:`~skfem_sheet.continuation.snap_from_fold`) and the ramp goes on.
 
     Parameters
     ----------

@@ -22,21 +22,16 @@ the width (``(1/p) int_{-p/2}^{p/2} dt``, Simpson's rule on the grid across,
 Strains and stresses
 --------------------
 The Green--Lagrange strains of the mid-surface in the (s, t) coordinates,
-``E_ij = (d_i x . d_j x - delta_ij) / 2`` (eq. of E_ij, i, j in {s, t}), are
-the in-plane components of the 3D Green--Lagrange tensor ``(F^T F - I)/2`` on
-the mid-plane ``z = 0`` (their tangential derivatives are continuous across
-element faces of the mid-plane, so the value does not depend on the side).
-They do not depend on the frame.
+``E_ij = (d_i x . d_j x - delta_ij) / 2`` (eq. of E_ij), are the in-plane
+components of ``(F^T F - I)/2`` on the mid-plane ``z = 0`` (continuous
+across element faces there), independent of the frame.
 
 The in-plane stresses are the paper's: the plate's stretching stress
 resultants ``T_ij = Y [(1 - nu) E_ij + nu E_kk delta_ij]`` with the stretching
-modulus ``Y = E h / (1 - nu^2)`` and ``nu = 1/2`` (supplement, eq. T_ij):
-a linear (Saint Venant--Kirchhoff) membrane law on the Green--Lagrange
-strains, i.e. a second Piola--Kirchhoff membrane force per unit reference
-length, which is the small-strain limit of the incompressible neo-Hookean
-sheet in plane stress (``Y = 4 mu h``).  They are returned divided by
-``Y``: ``T_ss / Y = E_ss + nu E_tt`` and ``T_tt / Y = E_tt + nu E_ss``
-(``(1 - nu) + nu = 1`` on the diagonal).
+modulus ``Y = E h / (1 - nu^2)`` and ``nu = 1/2`` (supplement, eq. T_ij), the
+small-strain limit of the incompressible neo-Hookean sheet in plane stress
+(``Y = 4 mu h``), returned divided by ``Y``: ``T_ss / Y = E_ss + nu E_tt``,
+``T_tt / Y = E_tt + nu E_ss``.
 
 A symmetric half solve (mesh ``y >= 0``) is mirrored: ``U_x, U_z`` are even in
 ``t`` and ``U_y`` odd.  Trapezoids and planforms without bites are supported

@@ -2,71 +2,29 @@
 
 The paper's two modes (its Fig. 3): in the *curvature-dominated* mode the
 clamp's transverse curvature persists along the sheet and holds it aloft; in
-the *gravity-dominated* mode the curvature relaxes near the base and the
-sheet beyond it, flat, bends down under its weight ("which mode is selected
-depends on the length of the sheet relative to a persistence length, the
-distance along the sheet over which the transverse curvature relaxes").
-Two signs of the second mode are read from the state, and a state is
-gravity-dominated if it shows either:
+the *gravity-dominated* mode it relaxes within the persistence length and the
+flat sheet beyond bends down under its weight.  A state is gravity-dominated
+if it shows either sign of the second mode:
 
-1. **The transverse curvature relaxes inside the sheet.**  The lateral
-   curvature ``c(s)`` of the mid-surface (the quadratic fit of its
-   deflection across each section,
-   :meth:`~skfem_sheet.analyses.midsurface.Midsurface.lateral_curvature`)
-   changes sign somewhere over ``0 <= s <= 0.9 L`` (the last tenth left
-   out, where a tapered sheet's sections are too narrow to fit): the
-   paper's persistence length ``L_p``, where ``c`` vanishes, lies inside
-   the sheet, and beyond it the sheet is flat (its small curvature of the
-   other sign is the anticlastic response of a bent strip).  Along the
-   curvature-dominated branch ``c`` keeps the clamp's sign to the tip.
-2. **The sag decelerates with the length.**  On the state's *S-curve*, the
-   curve ``d(L)`` of the equilibria of its planform, curvature and material
-   as the length varies (:mod:`skfem_sheet.bistability`), the slope
-   ``d' = dd/dL`` is positive and the bend ``d'' = d^2d/dL^2`` negative:
-   the sheet hangs, each added length hanging further down but ever closer
-   to straight down.  Held aloft by its curvature, a sheet is a stiff beam
-   whose free part's weight and lever grow together, so its sag accelerates
-   (the paper's cantilever estimate ``d ~ (L - L_p)^4``), or the tip even
-   rises as the curved sheet lengthens (``d' < 0``).
+1. **The transverse curvature relaxes inside the sheet**: the lateral
+   curvature ``c(s)`` of the mid-surface
+   (:meth:`~skfem_sheet.analyses.midsurface.Midsurface.lateral_curvature`)
+   changes sign over ``0 <= s <= 0.9 L``.
+2. **The sag decelerates with the length**: on the state's S-curve ``d(L)``
+   the slope ``d'`` is positive and the bend ``d''`` negative (a hanging
+   sheet; held aloft, the sag accelerates, ``d ~ (L - L_p)^4``, or the tip
+   rises).
 
-Otherwise the state is curvature-dominated.  Each sign alone misses states
-the other catches: a weakly curved clamp (a/R about 0.4) lets a sheet hang
-while the little curvature it has never changes sign (2.), and a long
-hanging sheet on a strongly curved clamp (a/R 3.5 to 5) can have a sag that
-accelerates again far out on its branch (1.); on the stress set both
-together name every hanging state gravity-dominated
-(``benchmarks/bistability.py --names``, record in
-``benchmarks/results/robustness/labels_n100_seed1_hmax0.1.txt``).
-
-Why a bistable pair gets two names: at a fold ``L*`` the S-curve is a
-parabola in the state, ``L - L* ~ -(d - d*)^2``, so on the stable branch
-ending at the pop-up length ``L0*`` (a minimum of ``L``) ``d'' -> -infinity``
-with ``d' -> +infinity``: gravity-dominated (2.); on the one ending at the
-standout length ``L1*`` (a maximum) ``d'' -> +infinity``, and the curvature
-persists along the aloft sheet: curvature-dominated.  The names change
-where the curvature first relaxes or the S-curve has its inflection (its
-steepest point, the transition length the figures mark for sheets that are
-not bistable, :func:`skfem_sheet.studies.foldmap.transition_length`); for a
-bistable S-curve both lie on its unstable middle branch.  The name depends
-on the state only: one state gets one name whichever load path reached it,
-and the load path's history is kept apart (``Result.snaps``).
-
-Two limits are named by what is missing: a flat clamp (``a/R = 0``) has no
-transverse curvature to dominate -- gravity-dominated (as the figures have
-it); a sheet without gravity (load factor 0) has no weight to dominate --
-curvature-dominated.  A planform with bites has no single section to fit
-across: only the S-curve's sign (2.) is read.
-
-How ``d'`` and ``d''`` are computed: at the equilibrium ``R(w(L), L) = 0``
-on the mesh stretched in L (the family of lengths of
-:func:`~skfem_sheet.bistability.fold_lengths`), ``K w' = -R_L`` and
-``K w'' = -D^2 R[(w', 1), (w', 1)]``, the second directional derivative of
-the residual along the tangent ``(w', 1)`` in ``(w, L)`` (a central second
-difference of three residuals on the stretched meshes); ``d' = T(w')`` and
-``d'' = T(w'')`` with ``T`` the tip deflection (linear in the state).  Two
-solves with the solve's factorisation refined against the tangent at the
-state (one assembly), four residuals and one evaluation of the mid-surface
-at 19 x 21 points: a few per cent of a solve.
+Each sign alone misses states the other catches (the record:
+``benchmarks/results/robustness/labels_n100_seed1_hmax0.1.txt``).  At a fold
+the S-curve is a parabola, ``L - L* ~ -(d - d*)^2``, so the stable branch
+ending at ``L0*`` is gravity-dominated and the one ending at ``L1*``
+curvature-dominated: a bistable pair gets two names, and one state one name
+whichever load path reached it.  A flat clamp is gravity-dominated, a sheet
+without gravity curvature-dominated; a planform with bites is read by (2.)
+only.  ``d' = T(w')`` and ``d'' = T(w'')`` (``T`` the tip deflection) come
+from ``K w' = -R_L`` and ``K w'' = -D^2 R[(w', 1), (w', 1)]`` on the mesh
+stretched in L, with the solve's factorisation.
 
 Examples
 --------

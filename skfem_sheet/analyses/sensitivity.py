@@ -1,69 +1,23 @@
 """Sensitivities of a solved sheet to its parameters: one back-substitution each.
 
-At an equilibrium the free residual vanishes, ``R(u(p), p) = 0``, so the
-state moves with a parameter ``p`` as
+At an equilibrium ``R(u(p), p) = 0``, so the state moves with a parameter as
 
     K du/dp = -R_p,                                              (1)
 
-with ``K`` the tangent on the free dofs (displacements and pressures: the
-saddle-point system itself, symmetric) and ``R_p`` the derivative of the
-residual at a fixed state.  The derivative of a scalar output ``q(u, p)`` is
-then ``dq/dp = q_p + q_u . du/dp``.  Because ``K`` is symmetric, this is the
-adjoint formula ``dq/dp = q_p - lambda . R_p`` with ``K lambda = q_u``: the
-two differ only in which side of ``K^-1`` the vector is put on.  Here the
-state derivative ``du/dp`` is formed (one back-substitution per parameter, all
-parameters in one solve with several right-hand sides) so that every output
-is a directional derivative of the function the package already evaluates --
-no hand-written gradient of an observable:
-
-- ``deflection``: :func:`~skfem_sheet.analyses.observables.tip_deflection`
-  (the lowest clamp point minus the lowest free-edge point: piecewise linear
-  in the displacements, so its derivative is that of the two active nodes);
-- ``energy``: :meth:`~skfem_sheet.problem.SheetProblem.energy` (at an
-  equilibrium only its explicit parameter derivative remains: the Lagrangian
-  is stationary in the free dofs);
-- ``tip_angle``: :func:`tip_angle`, the angle phi(L) of the deformed centre
-  line at the free edge (the ribbon model's, from
-  :func:`~skfem_sheet.analyses.midsurface.section_frame`), radians, negative
-  when the tip points down.
-
-Each output's total derivative is the central difference of the output along
-the linearised state, ``[q(p + e, u + e du/dp) - q(p - e, u - e du/dp)] / 2e``
-(exact for the deflection, second order in ``e = 1e-5 p`` for the others),
-which includes the explicit dependence on the parameter (e.g. the stretch of
-the tip's slope with the length).
-
-How ``R_p`` is obtained (``e`` the same relative step):
-
-- ``modulus``: the residual is linear in the shear modulus (``P = mu F -
-  (mu + p J) F^{-T}``), so the central difference of residuals at a fixed
-  state is exact to round-off;
-- ``gravity`` (the load factor of :func:`~skfem_sheet.solve.solve`): the
-  residual is linear in it (the weight vector);
-- ``curvature``: the residual at a fixed state does not depend on it; the
-  clamped values do, so ``R_p = K_fc dU_c/d(a/R)`` with the coupling of the
-  free to the clamped dofs (:meth:`~skfem_sheet.problem.SheetProblem.clamp_coupling`),
-  a Dirichlet-data derivative;
-- ``thickness``, ``length``, ``tip_width``: the mesh is mapped (z scaled by
-  ``h'/h``; x stretched by ``L'/L`` as in
-  :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.stretched`; y scaled by
-  ``p_b'(x/L) / p_b(x/L)``, the map of the fold curves, which keeps the clamp
-  and the symmetry plane), the same tetrahedra with moved vertices
-  (:func:`scaled_problem`, :func:`mapped_problem`), and the residual at a fixed state is
-  differenced; the clamped values move with the thickness (the clamp
-  displacement depends on z), which adds ``K_fc dU_c/dh``.
-
-So the shape derivatives are those of the discrete problem on one mesh
-topology (what continuation in L and b uses), not of a remeshed one.
-
-The factorisation: a solve ends with the exact tangent factorised at its
-last Newton iterate, and the polish moves the state by at most Newton's
-tolerance after it.  Equation (1) is solved with that factorisation and
-iterative refinement against the tangent assembled at the final state (one
-assembly, a back-substitution per refinement step), so the answer is that
-of the final state's tangent; only where the refinement does not contract
-(a factorisation far from the state) is the tangent refactorised there
-(``Sensitivities.factorizations`` says so).
+with ``K`` the (symmetric, saddle-point) tangent on the free dofs and ``R_p``
+the residual's derivative at a fixed state; an output's derivative is
+``dq/dp = q_p + q_u . du/dp`` (the adjoint formula, ``K`` being symmetric).
+``du/dp`` is formed, all parameters in one solve with several right-hand
+sides, so every output (``deflection``, ``energy``, ``tip_angle``) is the
+central difference of the function the package already evaluates along the
+linearised state.  ``R_p`` is exact for ``modulus`` and ``gravity`` (the
+residual is linear in them), a Dirichlet-data derivative ``K_fc dU_c/dp`` for
+``curvature``, and the difference of residuals on the mapped mesh (one
+topology, :func:`scaled_problem`, :func:`mapped_problem`) for ``thickness``,
+``length`` and ``tip_width``.  Equation (1) is solved with the solve's last
+factorisation and iterative refinement against the tangent at the final
+state, refactorised only where the refinement does not contract.  The
+derivation, parameter by parameter: ``docs/guide/sensitivities.md``.
 
 Examples
 --------
@@ -116,7 +70,7 @@ RELATIVE_STEP = 1e-5
 #: is refactorised at the state.
 MAX_REFINEMENTS = 4
 #: Relative residual of equation (1) at which the refinement stops (the held
-#: factorisation at the state meets it at once: 1e-12 to 6e-10, measured) ...
+#: factorisation at the state meets it at once, at 1e-12 to 6e-10) ...
 REFINEMENT_TOL = 1e-8
 #: ... or, where it stops contracting, the largest one accepted: the round-off
 #: floor of the saddle-point solve of a thin sheet is about 6e-10 (the gravity
@@ -198,10 +152,8 @@ def mapped_problem(problem: SheetProblem, *, length=None, tip_width=None,
     The vertices move (``x' = x L'/L``, ``y' = y p_b'(x/L) / p_b(x/L)`` with
     ``p_b(xi) = 1 + (b - 1) xi``, ``z' = z h'/h``); the tetrahedra, dof
     numbering, dof sets and the assembler are kept, so a state of ``problem``
-    is a state of the mapped one.  The space is built afresh on the mapped
-    mesh (:meth:`TaylorHoodSpace.build`, uncached), so that its bases
-    evaluate fields at points of the mapped sheet (the tip angle).  The
-    map keeps the clamp ``x = 0`` and the symmetry plane ``y = 0``.
+    is a state of the mapped one; the space is built afresh on the mapped
+    mesh (its bases evaluate the tip angle there).
 
     Examples
     --------
@@ -257,13 +209,9 @@ def scaled_problem(problem: SheetProblem, *, length=None, thickness=None) -> She
 
     The maps are diagonal and affine (``x L'/L``, ``z h'/h``), so, as for
     :meth:`~skfem_sheet.discretisation.TaylorHoodSpace.stretched`, only the
-    gradients' x and z components, the volume weights, the node coordinates
-    and the integrals change; no basis is built, and the space keeps the mesh
-    it was built on (``problem.length / mesh.length`` is the x stretch, as
-    the observables expect; a z scale leaves the mid-plane and every
-    x-derivative there as they are, so the tip angle is that of the scaled
-    sheet too).  The same as :func:`mapped_problem` for these two maps, at a
-    fraction of the cost.
+    gradients, volume weights, node coordinates and integrals change and no
+    basis is built: :func:`mapped_problem` for these two maps, at a fraction
+    of the cost.
 
     Examples
     --------
@@ -631,9 +579,8 @@ def state_sensitivities(problem: SheetProblem, w, gravity: float, parameters, *,
         Names from :data:`PARAMETERS`.
     linear : linear solver, optional
         A back-end holding a factorisation of the tangent near ``w`` (the
-        solve's); it is used with iterative refinement against the tangent at
-        ``w``, and refactorised at ``w`` if that does not contract.  Default:
-        factorise the tangent at ``w`` (one factorisation).
+        solve's), used with iterative refinement (see the module).  Default:
+        factorise the tangent at ``w``.
     outputs : iterable of str
         Names from :data:`OUTPUTS`.
 

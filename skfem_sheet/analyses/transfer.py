@@ -1,50 +1,25 @@
 """Transfer of a state between two meshes of one sheet, in memory linear in the mesh.
 
-When a continuation in the length remeshes (:mod:`skfem_sheet.bistability`),
-the state on the old (possibly stretched) mesh is interpolated at the nodes
-of the new one: P2 displacements at all quadratic nodes, P1 pressures at the
-vertices.  The values are those of scikit-fem's ``CellBasis.probes``
-(reference coordinates by ``mapping.invF``, basis values by ``elem.gbasis``
-on the cell that contains each point), but the cells are found differently.
-
-scikit-fem's element finder (``MeshTet1.element_finder``) queries the ten
-nearest element centroids of every point and then maps *every* point into
-*every* candidate element at once: an array of ``3 x points x candidates``
-doubles, i.e. memory growing like the square of the mesh (measured: +1.4 GB
-for one transfer at hmax 0.06, tens of GB at hmax 0.03), and a search of all
-elements if one point is missed.
-
-The sheet meshes are extruded from a plan triangulation
-(:func:`skfem_sheet.mesh.extrude`): vertex ``i`` of layer ``k`` is
-``k * n_plan + i`` and every tetrahedron lies in one prism ``triangle x
-layer``.  A point is therefore located by
-
-1. a 2D point location in the plan: the triangles are binned by their
-   bounding boxes on a uniform grid of about one triangle per cell, and the
-   point's cell lists its candidates; the one with the largest smallest
-   barycentric coordinate is taken (for a point on an edge, either neighbour
-   contains it and either gives the same value of a continuous field);
-2. the layer from ``z`` (a search in the sorted layer heights);
-3. the tetrahedron among the three of that prism with the largest smallest
-   barycentric coordinate.
-
-Every array is linear in the mesh (the grid, the prism table) or in the chunk
+When a continuation remeshes, the state on the old (possibly stretched)
+mesh is interpolated at the nodes of the new one (P2 displacements, P1
+pressures), with the values of scikit-fem's ``CellBasis.probes`` but the
+cells found differently: scikit-fem's element finder maps every point into
+every candidate element at once (memory like the square of the mesh).  The
+sheet meshes are extruded from a plan triangulation
+(:func:`skfem_sheet.mesh.extrude`), so a point is located by a 2D point
+location in the plan (triangles binned on a uniform grid; the candidate with
+the largest smallest barycentric coordinate), the layer from ``z``, and the
+tetrahedron among the three of that prism.  Every array is linear in the mesh (the grid, the prism table) or in the chunk
 of points processed at once (``chunk``), so the working memory of a transfer
 is bounded by a constant times the size of the state plus a fixed chunk.
 
-Two meshes of a curved outline (a planform's profile, a bite) are two
-polygons inscribed in it: their boundary vertices lie on the outline, their
-boundary edges are chords, each off the outline by up to its sagitta
-(:attr:`~skfem_sheet.mesh.SheetMesh.chord_error`).  A node of the new mesh
-can then lie just outside the old mesh's plan: a midpoint of a new chord
-where the outline bulges inwards (a flare), a vertex on the outline where it
-bulges outwards (a leaf), at most the two chord errors from it.  Such a point
-is located in the boundary cell nearest to it and the old field's polynomial
-on that cell is continued to it (:meth:`ExtrudedLocator.locate` with
-``outside``): the natural extension of the field across a boundary that is
-itself only known to the chord error.  A point farther out than the two
-chord errors cannot be carried: :class:`TransferError` names the two meshes
-and the distance.
+Two meshes of a curved outline are two polygons inscribed in it
+(:attr:`~skfem_sheet.mesh.SheetMesh.chord_error`), so a new node can lie
+just outside the old plan, by at most the two chord errors: it is located in
+the nearest boundary cell and the old field's polynomial there is continued
+to it (:meth:`ExtrudedLocator.locate` with ``outside``).  A point farther out
+cannot be carried: :class:`TransferError` names the two meshes and the
+distance.
 """
 from __future__ import annotations
 
@@ -57,8 +32,8 @@ from ..params import ParameterError
 __all__ = ["CHUNK", "ExtrudedLocator", "TransferError", "carry_distance", "interpolate",
            "transfer"]
 
-#: Points located and interpolated at once (bounds the working memory:
-#: measured about 0.75 kB per point, i.e. some 15 MB per chunk).
+#: Points located and interpolated at once (bounds the working memory: about
+#: 0.75 kB per point, i.e. some 15 MB per chunk).
 CHUNK = 20_000
 
 #: Largest distance outside a cell, in barycentric coordinates, of a point

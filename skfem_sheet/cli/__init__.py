@@ -1,19 +1,8 @@
 """Command line: ``python -m skfem_sheet`` (also installed as ``skfem-sheet``).
 
-Commands:
-
-- ``solve``: one sheet along one load path; ``--json`` / ``--vtu`` / ``--png``
-- ``demo``: a default sheet (the paper's bistable rectangle, aloft branch): prints d,
-  writes a PNG picture and a VTU file
-- ``rom``: reduced-order models (persistence length, cantilever, elastica, ribbon; see
-  ``skfem_sheet.reduced``)
-- ``sweep``: a grid of sheets in parallel into one resumable table
-- ``bistability``: pop-up and standout lengths of one sheet (optional S-curve)
-- ``fold-curve``: the fold curve in (L, b/a) at one a/R, through its cusp
-- ``fold-map``: pop-up and standout lengths over a grid of (b/a, a/R)
-- ``figure``: one of the paper's figures
-- ``calibrate``: fit the modulus (or other parameters) to measured tip deflections
-- ``switch``: switching forces and energy barriers of a bistable sheet
+Commands: ``python -m skfem_sheet --help`` lists them (``solve``, ``demo``, ``rom``,
+``sweep``, ``bistability``, ``fold-curve``, ``fold-map``, ``figure``, ``calibrate``,
+``switch``).
 
 All argument parsing of the package lives here, one module per command; each
 exposes ``register(subparsers)``, which adds the command's parser and sets
@@ -23,8 +12,8 @@ exposes ``register(subparsers)``, which adds the command's parser and sets
 Bad arguments give a one-line message naming the parameter and the allowed
 range, and exit code 2 (no traceback).  A solve that does not reach full load
 prints why and exits with code 1 (its JSON says ``"converged": false``).
-Ctrl-C exits with code 130 within seconds (measured 0.7-2.7 s; a factorisation
-under way finishes first); a study (``sweep``, ``fold-map``, ``figure``) abandons
+Ctrl-C exits with code 130 within seconds (a factorisation under way
+finishes first); a study (``sweep``, ``fold-map``, ``figure``) abandons
 the points in flight and says how many it finished and kept, and where.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``skfem-sheet calibrate``: fit the modulus (or other parameters) to measured deflections.
+"""``skfem-sheet calibrate``: fit the modulus (or other parameters) to observed deflections.
 
 Give the sheet (``--tip-width``, ``--curvature``, ``--thickness``, and
 ``--modulus`` as the starting value) and the measurements, as ``--length L

@@ -1,36 +1,25 @@
 """Branches of equilibria in one parameter: natural and pseudo-arclength continuation.
 
 :func:`natural`
-    steps the parameter, predicts with ``du/dp = -K^{-1} R_p`` (one
-    back-substitution with the last factorisation) and corrects with Newton at
-    fixed parameter; steps grow after easy corrections and are halved after
-    failures.  A failed step (Newton failed, the inertia changed, or the
-    state jumped) triggers an attempt to locate a fold from the last
-    equilibrium (:func:`~skfem_sheet.engine.fold.locate_fold`; at the last
-    step before the branch is given up, approached along the branch where
-    Newton on the fold system fails from there); a fold inside the failed
-    step ends the branch there, located to the Newton tolerance.
+    steps the parameter, predicts with ``du/dp = -K^{-1} R_p`` and corrects
+    with Newton at fixed parameter; a failed step (Newton failed, the inertia
+    changed, or the state jumped) locates a fold from the last equilibrium
+    (:func:`~skfem_sheet.engine.fold.locate_fold`), which ends the branch if
+    it lies inside the step; else the step is halved.
 :func:`arclength`
     pseudo-arclength continuation in ``(u, p_i)``: the equilibrium equations
     bordered by ``<t_u, u - u_k> + t_p (p_i - p_k) = ds``, solved by block
-    elimination with the one factorisation of the tangent per iteration
-    (:class:`~skfem_sheet.engine.corrector.Bordered`), which stays usable at
-    folds.  Folds are detected by a sign change of the tangent's parameter
-    component ``t_p`` (and of the inertia) between points and located by
-    :func:`~skfem_sheet.engine.fold.locate_fold` from the nearer point.
+    elimination with one factorisation of the tangent per iteration
+    (:class:`~skfem_sheet.engine.corrector.Bordered`, usable at folds); folds
+    are detected by a sign change of ``t_p`` and located from the nearer point.
 :func:`sweep`
     continuation through prescribed values of one parameter (load ramps, a
     grid of lengths): no step control, failed corrections kept, a ``revise``
     hook to re-do a step (e.g. in sub-steps).
 
-The drivers take hooks for the problems that need more than the protocol:
-``start`` (an already converged first point), ``linearization`` (the
-corrector's own linearisation and trial test, e.g. a stopping rule or a line
-search), and for :func:`natural` ``check`` (further acceptance tests: stability,
-a jump of an observable), ``before_step`` (remesh and transfer the state),
-``on_step`` (a callback per point, e.g. to write a series), ``bracket`` (end
-a bisection of the step at this width instead of locating the fold) and the
-step growth (``growth``, ``grow_after``).
+The drivers take hooks for the problems that need more than the protocol
+(``start``, ``linearization``, and for :func:`natural` ``check``,
+``before_step``, ``on_step``, ``bracket``, ``growth``): see their parameters.
 """
 from __future__ import annotations
 
@@ -181,14 +170,11 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         A step whose equilibrium moved further than this (correction norm)
         from its prediction failed: it landed on another branch.
     locate : bool or callable
-        Locate a fold when a step fails (see the module docstring).  A
-        callable ``locate(counter, u, p, i, dudp, factorization, last_try) ->
-        FoldPoint or None`` locates it instead of
-        :func:`~skfem_sheet.engine.fold.locate_fold` (e.g. along the branch,
-        :func:`~skfem_sheet.engine.fold.fold_on_branch`, for a problem whose
-        fold system has a small basin), from the last equilibrium ``(u, p)``
-        with its tangent ``dudp`` and factorisation; ``last_try`` is True at
-        the last failed step before the branch is given up.
+        Locate a fold when a step fails.  A callable ``locate(counter, u, p,
+        i, dudp, factorization, last_try) -> FoldPoint or None`` locates it
+        instead of :func:`~skfem_sheet.engine.fold.locate_fold` (e.g.
+        :func:`~skfem_sheet.engine.fold.fold_on_branch`), from the last
+        equilibrium; ``last_try`` at the last failed step.
     check_inertia : bool
         Passed to :func:`~skfem_sheet.engine.fold.locate_fold`.
     keep_states : bool
@@ -224,21 +210,14 @@ def natural(problem, u0, p0, param, stop, *, step: float = 0.1, min_step: float 
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
     guide : callable(p_from, p_to) -> ndarray or None, optional
-        A correction added to the tangent prediction of the step from the
-        parameters ``p_from`` to ``p_to`` (None: none for this step), e.g.
-        the second-order part of the same branch on a coarser discretisation
-        (``u_c(p_to) - u_c(p_from) - (p_to - p_from) du_c/dp(p_from)``,
-        carried over): the prediction's error is then the *difference* of
-        the two branches' curvatures, and Newton starts closer.
+        A correction added to the tangent prediction of the step from
+        ``p_from`` to ``p_to``, e.g. the second-order part of the same branch
+        on a coarser discretisation (the prediction's error is then the
+        difference of the two branches' curvatures).
     approach : int
-        At the last failed step (the branch given up), the fold is located
-        with this ``approach`` (:func:`~skfem_sheet.engine.fold.locate_fold`:
-        at most this many arclength corrections along the branch towards the
-        fold where Newton on the fold system fails from the last point; 0:
-        none).  Near a fold flat in the parameter Newton at fixed parameter
-        fails within ``min_step`` of it and the fold system's basin can be
-        smaller than that (the sheet at hmax 0.2, a/R 2.5: 1e-4 from its
-        pop-up fold).
+        The ``approach`` of :func:`~skfem_sheet.engine.fold.locate_fold` at the
+        last failed step (for a fold flat in the parameter, whose fold-system
+        basin can be smaller than ``min_step``).
 
     Returns
     -------
@@ -358,10 +337,8 @@ def sweep(problem, u0, p0, param, values, *, tol: Tolerances = DEFAULT_TOLERANCE
     The first value is corrected from ``u0``, every next one from the last
     converged state (predicted along the tangent ``du/dp`` if ``predict``).
     A correction that fails is kept (``converged=False``) and the next value
-    starts again from the last converged state, so that a sweep through a
-    fold reports where it failed, or -- for a descent method such as the
-    ribbon model's -- lands on the branch that still exists (the jump) and
-    goes on from there.
+    starts again from the last converged state (a descent method lands on
+    the branch that still exists: the jump).
 
     Parameters
     ----------
@@ -452,21 +429,13 @@ def arclength(problem, u0, p0, param, bounds, *, ds: float = 0.05, ds_min: float
         The first point is already converged at ``p0``: take ``u`` as it is,
         with this factorised tangent at (or near) it.
     turn : float, optional
-        Step control by the curve's bending (radians): the angle between the
-        unit tangents of consecutive points (in the norm of ``ds``) is kept
-        near ``turn``: a step that turned by more than twice as much is
-        rejected and halved (down to ``ds_min``), as is a step whose new
-        tangent points back along its chord (the curve turned by more than a
-        right angle within it: a sharp fold crossed, where the tangent,
-        oriented along the last one, would send the continuation back the
-        way it came) or across which the inertia changes while the
-        tangent's parameter component keeps its sign (the same, where the
-        chord does not show it; or a branch point, which the halved steps
-        expose down to ``ds_min``), and the next step is scaled
-        by ``turn / angle`` (between 1/2 and the growth after an easy
-        correction, 1.5), so that the points fall densely where the curve
-        bends and sparsely where it is straight.  Default: none (the steps
-        grow after easy corrections up to ``ds_max``).
+        Step control by the curve's bending (radians): the angle between
+        consecutive unit tangents is kept near ``turn``.  A step that turned
+        by more than twice as much is rejected and halved, as is one whose
+        new tangent points back along its chord (a sharp fold crossed) or
+        across which the inertia changes while ``t_p`` keeps its sign; the
+        next step is scaled by ``turn / angle`` (between 1/2 and 1.5).
+        Default: none (the steps grow after easy corrections).
 
     Returns
     -------

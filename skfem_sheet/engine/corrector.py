@@ -50,34 +50,22 @@ class Tolerances:
         jumping to another branch); ``inf`` for no guard.
     divergence_floor : float or None
         From the third linearisation on, a correction larger than
-        ``10 max(first, utol)`` (``None``, the default) or than
-        ``max(10 first, divergence_floor)`` (a number) stops the iteration as
-        "diverging".  A floor suits problems whose corrections are
-        non-monotone for a few iterations (a bending step of a thin sheet
-        leaves a membrane residual for the next one).
+        ``10 max(first, utol)`` (``None``) or ``max(10 first,
+        divergence_floor)`` stops the iteration as "diverging" (a floor for
+        corrections non-monotone for a few iterations).
     pair_contraction : bool
         From the third linearisation on, a correction larger than the one two
         linearisations before (and than ``utol``) stops the iteration as "not
         contracting": Deuflhard's monotonicity test (*Newton Methods for
-        Nonlinear Problems*, Springer 2004, sec. 5.1: a contraction of one or
-        more says the iterate left Newton's basin) on pairs of corrections,
-        for systems whose consecutive corrections alternate in size while
-        they converge (a thin sheet's bending correction leaves a membrane
-        residual for the next one).  Off by default.
+        Nonlinear Problems*, Springer 2004, sec. 5.1) on pairs of
+        corrections, for systems whose consecutive corrections alternate in
+        size.  Off by default.
     error_estimate : bool
-        Also stop on Newton's own error estimate (Deuflhard, *Newton Methods
-        for Nonlinear Problems*, Springer 2004, ch. 2): from the second
-        linearisation on, with the contraction ``theta = c_k / c_{k-1}`` of
-        the last two corrections (in the norm of ``utol``) at most 1/2 (the
-        iteration converges), the iterate plus its correction ``c_k`` is
-        within ``theta / (1 - theta) c_k`` of the solution (the bound of a
-        linearly contracting iteration, pessimistic for Newton's quadratic
-        one); when that is at most ``utol``, the corrected iterate is
-        returned, whatever the residual at the iterate (which, one
-        correction away from the solution of a stiff system, is still large:
-        a correction of 1e-5 a of a thin sheet leaves residuals of the order
-        of the weight).  Saves the linearisation that would only confirm
-        convergence.  Off by default.
+        Also stop on Newton's error estimate (Deuflhard, ch. 2): with the
+        contraction ``theta = c_k / c_{k-1} <= 1/2`` of the last two
+        corrections, the corrected iterate is within ``theta / (1 - theta)
+        c_k`` of the solution; when that is at most ``utol`` it is returned,
+        whatever the residual at the iterate.  Off by default.
     """
 
     rtol: float = 1e-10
@@ -195,8 +183,7 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
     """Newton's method on a (possibly extended) system: the one loop.
 
     Every Newton iteration of the package runs here: the drivers of the
-    engine, and (through :func:`skfem_sheet.newton.newton`) the sheet's load
-    paths and continuation in L.
+    engine, and the callers' Newton solves built on it.
 
     Parameters
     ----------
@@ -211,13 +198,8 @@ def correct(counter: Counting, u, p, linearize, tol: Tolerances, admissible=None
     admissible : callable(u, p) -> bool, optional
         Whether a trial point may be used (default: finite residual).
     converged : callable(u, p, factorization, extra) -> bool, optional
-        A stopping test made after each step, at the new iterate ``(u, p)``,
-        with the factorisation of the previous one at hand (e.g. a small
-        residual there and a small simplified-Newton correction from one
-        back-substitution, so that no factorisation is spent only to confirm
-        convergence).  If it holds, ``(u, p)`` is returned as converged.  With
-        it the default test before the step (residual and correction at the
-        iterate below ``rtol`` and ``utol``) is not made.
+        A stopping test at the new iterate with the previous factorisation at
+        hand (e.g. :class:`ChordTest`); it replaces the default test.
 
     Returns
     -------
@@ -350,15 +332,10 @@ class ChordTest:
     the simplified corrections computed.
 
     The simplified correction estimates the error only if the factorised
-    matrix is close to the one at the iterate: after the first Newton step
-    from a prediction it is the matrix at the prediction, and on a thin sheet
-    (whose stiffness changes with its membrane stress over a small move) the
-    estimate can then be far too small (measured: a step of a load ramp
-    accepted after one correction of 0.003 a, with a simplified correction
-    below the tolerance, past a fold, where no equilibrium is near).  With
-    ``start`` (the prediction), the test therefore waits for the second
-    linearisation, made at an iterate within one Newton correction of the
-    current one.
+    matrix is close to the one at the iterate, so with ``start`` (the
+    prediction) the test waits for the second linearisation
+    (``docs/decisions.md``, "The chord test waits for a second
+    linearisation").
 
     Examples
     --------

@@ -23,10 +23,8 @@ regula falsi (Illinois) in the arclength between the two points, each
 evaluation a corrected fold point.
 
 Each point also reports the kind of fold in ``p_i`` (the side on which
-solutions exist) and the inertia: ``k`` negative eigenvalues besides the
-critical one, i.e. the two branches meeting there have ``k`` and ``k + 1``;
-with ``check_inertia`` the tangent is factorised on both sides of the fold
-along ``v`` to confirm that exactly one eigenvalue crosses zero.
+solutions exist) and ``k``, the negative eigenvalues besides the critical
+one (``check_inertia``: confirmed on both sides along ``v``).
 """
 from __future__ import annotations
 
@@ -187,26 +185,20 @@ def fold_curve(problem, start, params, bounds, *, ds: float = 0.05, ds_min: floa
         located (the sign change of the fold coefficient stays in the
         points' ``a``).
     check_inertia : bool or int
-        Factorise on both sides of every fold (True) or of every n-th point (n);
-        a check due at a degenerate fold (``|a|`` below 1 % of the largest
-        on the curve so far: at a cusp) is made at the next regular point.
+        Factorise on both sides of every fold (True) or of every n-th point (a
+        check due at a cusp is made at the next regular point).
     keep_states : bool
         Keep the state of every point (cusps always keep theirs).
     easy_iterations : int
         The step grows (x 1.5) after a point corrected in at most this many
-        Newton iterations, is kept after one more, and shrinks (x 0.7) after
-        more than that (unless ``target_correction`` is given).
+        iterations, is kept after one more, shrinks (x 0.7) after more.
     target_correction : float, optional
         Step control by the predictor's error instead: the next step is
-        ``h (target / c)^(1/q)`` (within ``[h/2, 2 h]``), ``c`` the size of
-        the first Newton correction of the point (``correction_norm`` of the
-        state, and the parameters), ``q`` the order of the predictor's error
-        (2 for the tangent, 3 for the quadratic predictor).
+        ``h (target / c)^(1/q)`` (within ``[h/2, 2 h]``), ``c`` the first
+        Newton correction, ``q`` the predictor's order.
     predictor : {"tangent", "quadratic"}
-        ``"quadratic"``: from the second step on, the tangent predictor plus
-        the curvature term ``h^2 / 2 (t_k - t_{k-1}) / h_{k-1}`` (the change
-        of the unit tangent over the last step): an error of order ``h^3``,
-        so that longer steps correct in as many iterations.
+        ``"quadratic"``: the tangent predictor plus the curvature term
+        ``h^2 / 2 (t_k - t_{k-1}) / h_{k-1}`` (an error of order ``h^3``).
     on_point : callable(FoldCurvePoint, u, v), optional
         Called with every point of the curve, its state and its null vector
         (also when ``keep_states`` is False; e.g. to write a series).

@@ -208,7 +208,7 @@ class FoldSystem:
         root of ``fd_state_step`` (in the correction norm), as for the second
         difference of :func:`fold_on_branch`: its truncation error
         ``O(e^2)`` and round-off ``O(eps / e^2)`` balance there.  A residual
-        costs a fraction of a tangent assembly (about a seventh on the sheet)."""
+        costs a fraction of a tangent assembly."""
         c = self.c
         one_sided = bool(getattr(c, "fd_one_sided", False))
         e = (c.fd_state_step ** 0.5 * max(1.0, float(np.abs(u).max()) if u.size else 1.0)
@@ -493,12 +493,9 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
     parameter component changes sign, and Newton on the fold system from the
     nearer of those two points (else the point between them where it
     vanishes).  Newton's basin for the fold system can be much smaller than
-    for the equilibrium: its first step from a point of the branch goes
-    straight to the fold's state (overshooting it in the parameter by the
-    same distance), off a branch that curves strongly in the state where the
-    fold is flat in the parameter (a thin sheet at hmax 0.2: 1e-4 from the
-    fold in L the state is 0.01 away, and that first step leaves a residual
-    of 4 times the weight).
+    for the equilibrium: its first step goes straight to the fold's state,
+    off a branch that curves strongly in the state where the fold is flat in
+    the parameter (the second example).
 
     Parameters
     ----------
@@ -518,9 +515,8 @@ def locate_fold(problem, u, p, param, *, v0=None, tol: Tolerances = DEFAULT_TOLE
         ``e`` relative to ``max(1, max |u|)``.
     approach : int
         Most arclength corrections of the approach along the branch (0, the
-        default: Newton on the fold system only; :func:`natural` approaches
-        at its last step, with 8).  Off by default because callers with a
-        fallback of their own (a fresh mesh, another section) may prefer it.
+        default: Newton on the fold system only, for callers with a fallback
+        of their own; :func:`natural` approaches at its last step, with 8).
 
     Returns
     -------
@@ -725,18 +721,11 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     to the fold, ``|g^2 / (2 g')| <= ptol``, and the fold is the point that
     step predicts (``u + dc u' + dc^2 u''/2``, ``p + dc g + dc^2 g'/2``: its
     residual and the error of its load are of third order in ``dc``, its
-    load within ``ptol`` of the last equilibrium's).  Every iterate is an equilibrium: unlike Newton on the whole fold
-    system, whose first step goes straight off a strongly curved branch (a
-    thin sheet: a step of 0.005 a leaves a residual of the order of the
-    weight), the iteration never leaves the branch.  It gives up where an
-    iterate's ``g`` keeps its sign without shrinking: Newton then straddles
-    a minimum of ``|g|``, not a zero (an overshoot past the fold changes the
-    sign of ``g``, and the iteration goes on).  From a state carried over
-    from a coarser mesh near its fold, the first section is within a few
-    ``1e-6`` of the fold load: one section solve (three factorisations, the
-    last Newton step's convergence confirmed by a back-substitution,
-    :class:`~skfem_sheet.engine.corrector.ChordTest`) locates it.  The null
-    vector, ``sigma`` and the fold coefficient ``a`` come from that last
+    load within ``ptol`` of the last equilibrium's).  Every iterate is an
+    equilibrium: unlike Newton on the whole fold system, the iteration never
+    leaves a strongly curved branch.  It gives up where an iterate's ``g``
+    keeps its sign without shrinking (a minimum of ``|g|``, not a zero).  The
+    null vector, ``sigma`` and the fold coefficient ``a`` come from the last
     factorisation and the same residual differences.
 
     Parameters
@@ -858,8 +847,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             (ca, ga, pa), (cb, gb, pb) = bracket
             if not min(ca, cb) < c_here + dc < max(ca, cb):
                 # Newton would leave the bracket (past an inflection of g,
-                # towards another fold: from the curvature-dominated branch of a
-                # sheet, onto the middle branch and its pop-up fold): the secant
+                # towards another fold, e.g. onto a middle branch and its
+                # other fold): the secant
                 # through the bracket's ends instead, which stays inside it,
                 # predicted from the nearer end
                 c_new = (ca * gb - cb * ga) / (gb - ga)
@@ -877,10 +866,8 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
             # Newton's method contracts |g| on its way to a simple zero, or
             # overshoots it (g changes sign: a fold between the two
             # sections); an iterate where g keeps its sign and does not
-            # shrink straddles a minimum of |dp/dc|, not a fold (measured:
-            # the issue-17 sheet at hmax 0.16, a rate minimum with dp/dc
-            # about 0.2 searched for 12 iterations and 37 factorisations,
-            # the sections alternating about it)
+            # shrink straddles a minimum of |dp/dc|, not a fold, about which
+            # the sections would alternate
             return failed(f"Newton on dp/dc = 0 does not contract (dp/dc {g:.3g} after "
                           f"{g_last:.3g}, the same sign): no fold near", pt[0])
         g_last, c_last, pt_last = g, c_here, pt
@@ -915,10 +902,7 @@ def fold_on_branch(problem, u, p, param, v, *, tol: Tolerances = DEFAULT_TOLERAN
     # itself, but the last section lies up to the load tolerance before it,
     # where t = u' differs from the null vector by O(g) and v . R_p picks up
     # -g R_p K^-1 R_p off the null direction, which outweighs it where the
-    # load barely moves the mode -- measured: the pop-up folds of L 1.2, b 0.8,
-    # a/R 2.5 at hmax 0.08 and L 1.3, b 1, a/R 6 at hmax 0.1, gravity-first,
-    # located from states carried from a coarser mesh one section before the
-    # fold (dp/dc -0.011), gave +1 with g' -6.9 and -2.3.)
+    # load barely moves the mode: docs/decisions.md, "The side of a fold".)
     out = NewtonResult(u_fold, p_fold, True, stats.newton_iterations, "", (), None, stats,
                        {"v": vn, "sigma": sigma, "a": a, "R_p": r_p[:, None],
                         "side": int(np.sign(g2)), "inertia": res.factorization.inertia()})

@@ -4,67 +4,33 @@
 parameter (the load) goes to ``stop``, and ends either there or at the first
 *turning point* of the load, located:
 
-- **steps**: natural (the parameter stepped, Newton at fixed parameter) where
-  the branch is gentle, pseudo-arclength (the equilibrium equations bordered
-  by the arclength condition) where it is steep; the switch is the slope of
-  the branch's direction, natural while its parameter component is at least
-  ``1/sqrt(2)`` (the branch is closer to the parameter axis than to the state
-  space, in the problem's arclength norm), as BifurcationKit's ``AutoSwitch``
-  does; a natural step whose Newton fails is retried as a pseudo-arclength
-  one (Newton at fixed parameter fails ahead of a fold).  The direction is
-  the unit tangent at the first point and then the secant of the last two
-  points (measured on the sheet's load ramps: the tangent from the
-  factorisation a corrector ends with, which is not at the converged state,
-  let steps jump over folds the secant's steps met).
-- **acceptance** (the one step rule,
-  :class:`~skfem_sheet.engine.steps.StepRule`): the corrector converged
-  (:class:`~skfem_sheet.engine.corrector.ChordTest`, at least two
-  linearisations), its distance from the prediction is at most four times
-  the nominal one (a correction whose first Newton step is already longer
-  than that is stopped there: Newton's first step estimates the distance),
-  and above the nominal one the *halving test*: the step of half the length
-  from the same point must land at most half as far (a smooth branch: a
-  quarter; a jump onto another branch: no nearer).  The next step is
-  chosen to land at the nominal distance (at most twice as long, and not
-  longer after a rejection or a correction that used more than half of
-  Newton's budget).
-- **turning points**: the parameter stops being monotone over three points
-  (the secant's parameter component changes sign), confirmed by the inertia
-  of the Hessian past the turn (one more negative eigenvalue; where the
-  problem reports inertia), and located on the branch by the minimally
-  augmented test function (:func:`~skfem_sheet.engine.fold.fold_on_branch`,
-  else Newton on the fold system, :func:`~skfem_sheet.engine.fold.locate_fold`).
-  A step across which the inertia changes *without* a turn is rejected (a
-  jump onto another branch, or a bifurcation, which the step shrinks to
-  expose).  A steep branch with no turning point is followed, whatever its
-  slope.
-- **folds within a step**: a step can cross a sharp fold, or a thin S-shaped
-  fold pair, whole (the parameter monotone over its ends, the inertia the
-  same at both: measured on the sheets near the cusp of their bistable
-  range).  Two rules from the parabola the parameter makes in the arclength
-  near a fold: the next step is at most three times the distance to where
-  the line of the falling rate ``|t_p|`` vanishes (:func:`_turn_bound`), so
-  that it ends past a turn ahead with the parameter turned; and where the
-  rate has a minimum (it fell to a point and rises after it: the branch came
-  nearest to turning there), the fold is searched on the branch within the
-  steps into and out of that point, one section solve each where there is
-  none, and ends the branch where the load turns back with one eigenvalue
-  crossing.
-
-- **turns too sharp for the steps**: where the branch turns back within
-  less than the smallest step (a hairpin), every step beyond the turn fails,
-  and a point accepted to the loose tolerance of the points on the way can
-  even lie past it, where Newton's iterates wander about the fold state.  A
-  point's error must therefore be at most a tenth of its distance from the
-  last point (:class:`SecantTest`); a turn located behind the last point (or
-  not located from the interpolated turn) is approached along the branch
-  within the step; and where the steps shrink below the minimum, the last
-  points are checked as equilibria to the end tolerance (those that are not
-  are dropped) and the turn ahead of the last point of the branch is
-  approached along its tangent and located (:func:`_fold_where_stalled`),
-  one eigenvalue crossing confirmed.  A stall without such a turn ahead is
-  reported as a failure that says what was found (an inertia change without
-  a turn: a branch point).
+- **steps**: natural where the branch's direction has a parameter component
+  of at least ``1/sqrt(2)`` (as BifurcationKit's ``AutoSwitch``), else
+  pseudo-arclength; a natural step whose Newton fails is retried as a
+  pseudo-arclength one.  The direction is the unit tangent at the first
+  point, then the secant of the last two (``docs/decisions.md``, "The secant
+  direction").
+- **acceptance** (the one step rule, :class:`~skfem_sheet.engine.steps.StepRule`):
+  the corrector converged (:class:`~skfem_sheet.engine.corrector.ChordTest`),
+  its distance from the prediction is at most four times the nominal one,
+  and above the nominal one the *halving test*: the half step must land at
+  most half as far (a smooth branch: a quarter).  The next step aims at the
+  nominal distance.
+- **turning points**: the secant's parameter component changes sign,
+  confirmed by one more negative eigenvalue past the turn, and the fold is
+  located on the branch (:func:`~skfem_sheet.engine.fold.fold_on_branch`,
+  else :func:`~skfem_sheet.engine.fold.locate_fold`).  A step across which
+  the inertia changes without a turn is rejected.
+- **folds within a step**: from the parabola the parameter makes near a
+  fold, the next step is at most three times the distance to where the line
+  of the falling rate ``|t_p|`` vanishes (:func:`_turn_bound`), and at a
+  minimum of the rate the fold is searched on the branch either side.
+- **turns too sharp for the steps**: a point's error must be at most a tenth
+  of its distance from the last point (:class:`SecantTest`); where the steps
+  shrink below the minimum, the last points are checked to the end tolerance
+  and the turn ahead is located along the tangent
+  (:func:`_fold_where_stalled`); a stall without a turn ahead is a failure
+  that says what was found.
 
 The driver ends at the fold: what happens there (a snap onto another branch)
 is the caller's.
@@ -132,11 +98,8 @@ def _predict(points, i, at, value, t):
     """Prediction ``(u, p)`` along the direction ``t`` of the last point (the
     unit tangent at the first point, then the secant of the last two), at
     the arclength ``value`` from it (``at="s"``) or at the parameter
-    ``value`` (``at="p"``).  Its error is second order in the step.
-
-    (An interpolant through three points, of third order, was measured on
-    the gravity ramp of a long sheet: its extrapolation overshoots where the
-    branch bends, and Newton failures cost more than it saves.)"""
+    ``value`` (``at="p"``).  Its error is second order in the step (not
+    third: ``docs/decisions.md``, "The secant direction")."""
     last = points[-1]
     h = value - (last.s if at == "s" else last.p[i])
     if at == "s":
@@ -236,10 +199,7 @@ def _turn_bound(points, rate_at):
     the last point's (``2 a`` ends level with it), which :func:`ramp` detects
     and locates.  A longer step can cross a sharp fold, or a thin S-shaped
     fold pair, turning (and turning back) within the step with no sign of it
-    at its ends (measured at hmax 0.1: L 0.985, b 0.840, a/R 5.71 and L 1.15,
-    b 0.7, a/R 4.6, gravity-first, from points 3e-4 and 1e-5 of the phase
-    before their pop-up folds, where the secants' rates were still 0.11 and
-    0.16).  None where the rates did not fall, or the tangent's rate is not
+    at its ends (``docs/decisions.md``, "Folds within a step").  None where the rates did not fall, or the tangent's rate is not
     below the secant's (no turn ahead by this line).
     """
     if len(points) < 2:
@@ -690,11 +650,8 @@ def ramp(problem, u0, p0, param, stop, *, rule: StepRule = StepRule(),
         elif dist > rule.delta:
             # the halving test, where the distance is above nominal: on the
             # branch the distance of the half step falls (fourfold, at least
-            # twofold); after a jump it does not.  (Measured: judging the
-            # distance against the one the last step predicts for this length
-            # instead lets a step of 0.21 jump over the pop-up fold of L
-            # 1.073, b 0.81, a/R 5.17 gravity-first at hmax 0.1, distance 0.086
-            # where 0.054 was predicted.)
+            # twofold); after a jump it does not (docs/decisions.md, "The
+            # halving test")
             half = attempt(0.5 * h, natural_ok)
             if half[1] is not None and half[1] <= 0.5 * dist:
                 queue = [half[0], res]

@@ -1,32 +1,22 @@
 """The one step-acceptance rule of the continuation drivers.
 
-A continuation step predicts a point (along the tangent or the secant of the
-last two points) and corrects it (Newton).  On a smooth branch the corrector
-distance -- how far the corrected point lies from the prediction, in the
-problem's correction norm -- is second order in the step ``h``: it falls
-about fourfold when ``h`` is halved.  A step whose Newton converged onto
-another branch moves O(1), however short it is.  This is the asymptotic step
-control of Allgower & Georg (*Introduction to Numerical Continuation
-Methods*, SIAM 2003, section 6.1) on the distance alone: with its nominal
-value ``delta``, a step whose distance is over four times nominal is
-rejected and retried at half the length -- the halving test: on a smooth
-branch its distance then falls at least fourfold and it passes, a jump does
-not shrink and is cut until the step is below ``minimum`` -- and an accepted
-one sets the next step to ``h (delta / distance)^(1/q)`` (``q`` the order of
-the predictor's error, 2 for a linear predictor, 3 for a quadratic one),
-between half and twice ``h``.  (Allgower & Georg also weigh Newton's
-contraction; on a thin sheet a bending step leaves a membrane residual that
-the next correction removes, so the second correction is often as large as
-the first on a perfectly smooth branch, and the contraction says nothing
-about the step.)  The corrector's first Newton correction is the
-first-order estimate of that distance (the estimate Allgower & Georg's
-step control is built on): a correction whose first step is already beyond
-the rejection bound (:attr:`StepRule.bound`) is stopped there and the step
-rejected, instead of being corrected to the end only to be rejected (or to
-fail after all of Newton's iterations, as a step too long for Newton's basin
-does).  No other rule accepts or rejects a step's size: the drivers
-add only what the mathematics says about the point itself (the corrector
-converged; the inertia changes only where the parameter turns).
+A continuation step predicts a point and corrects it.  On a smooth branch
+the corrector distance (corrected point to prediction, in the problem's
+correction norm) is second order in the step ``h``; a step whose Newton
+converged onto another branch moves O(1), however short.  This is the
+asymptotic step control of Allgower & Georg (*Introduction to Numerical
+Continuation Methods*, SIAM 2003, sec. 6.1) on the distance alone: with its
+nominal value ``delta``, a distance over four times nominal rejects the step,
+retried at half the length (the halving test: a smooth branch's distance
+falls fourfold, a jump's does not), and an accepted step sets the next to
+``h (delta / distance)^(1/q)`` (``q`` the predictor's order), between half
+and twice ``h``.  Newton's contraction is not weighed (on a thin structure
+the second correction is often as large as the first on a smooth branch).  A
+correction whose first Newton step is already beyond :attr:`StepRule.bound`
+is stopped there and the step rejected.  No other rule accepts or rejects a
+step's size: the drivers add only what the mathematics says about the point
+(the corrector converged; the inertia changes only where the parameter
+turns).
 
 Examples
 --------

@@ -32,14 +32,8 @@ __all__ = ["SHIFT_MEMORY_FADE", "TransientResult", "TransientSystem", "pseudo_tr
 #: :func:`pseudo_transient`) is divided by this: the memory must outlast the
 #: step or two in which the step-length rule would bring the shift below it
 #: again, and be gone once the state is past the saddle (the shift can then
-#: fall by ``max_decrease``, 64, per step).  Measured on the three snaps of
-#: the regression set and the snap sample that settle longest (issue 17's
-#: sheet, hmax 0.08; L 1.465 b 0.699 a/R 4.212 and L 1.203 b 0.514 a/R 2.442,
-#: hmax 0.1): 29, 24 and 14 factorisations in 19, 17 and 11 steps, where
-#: neither the memory nor the growing refactorisation factor took 45, 42
-#: and 25 in 22, 25 and 16; with a fade of 64 the memory is gone before it
-#: matters (issue 17: 35 factorisations), with 4 it holds the shift up after
-#: the saddle.
+#: fall by ``max_decrease``, 64, per step); ``docs/decisions.md``, "The
+#: shift's memory".
 SHIFT_MEMORY_FADE = 16.0
 
 

@@ -23,64 +23,34 @@ figS4  u/(h/a)^2, v/(h/a)^2, w/(h/a) at s/a = 0.4, 0.8, 1.2, gravity-free  one F
        rectangle L/a 2, a/R 0.5, h/a 0.03175
 =====  ==================================================================  =====================
 
-One figure more, not in the paper (issue 58): ``switching``, the switching forces and energy
-barriers of the rectangle across its bistable window at a/R 2.5 and 5, with the
-force-deflection curve of L/a 1.3, a/R 2.5 as an inset (the fold map's rows and the switching
-analyses of :mod:`skfem_sheet.switch`).
+One figure more, not in the paper: ``switching``, the switching forces and energy barriers
+of the rectangle across its bistable window (:mod:`skfem_sheet.switch`).
 
-The supplement's figures (figS1, figS3, figS4; S2 is a schematic) keep their
-solves in ``figS1-<quality>/*.csv``, ``figS3-<quality>/*.npz`` and
-``figS4-<quality>/*.npz``; their mid-surface fields are
-:mod:`skfem_sheet.analyses.midsurface`'s.
+The supplement's figures keep their solves in ``figS<n>-<quality>/``.
 
 Data: every finite-element curve of fig2, fig4-fig7 comes from one fold-map
 table per quality, ``data_dir/foldmap-<quality>.csv``
 (:func:`skfem_sheet.studies.foldmap.fold_map`): for each (b/a, a/R) both stable
-branches as curves d(L) -- the curvature-dominated one followed up from
-``L/a = 0.5`` to its fold ``L1*``, the gravity-dominated one down from
-``L/a = 3`` to its fold ``L0*`` -- with the stability of every point.
-Each figure asks the map for the (b/a, a/R) points it needs; points already
-in the table (its journal) are not recomputed, so drawing twice computes
-nothing twice, and the figures share their points (fig5's are fig2's).
-fig3 keeps its deformed surfaces in ``fig3-<quality>/*.npz``, fig5 its ribbon
-curves in ``fig5-<quality>-ribbon.csv``, fig6 its ribbon map in
-``fig6-<quality>-ribbon.csv``.
+branches as curves d(L) with the stability of every point.  Points already in
+the table (its journal) are not recomputed, and the figures share them.
 
-Quality: ``"quick"`` is the fold map at hmax 0.1 with continuation steps of
-at most 0.1 in L/a, each fold located where its branch ends (:data:`QUICK_GRID`; 10 s
-to 4.5 min per (b/a, a/R) point on one core, longest for wide, strongly
-curved sheets; the 49 points took 44 min on 2 cores, once; then each figure
-draws in about 5 s from the table, and fig6 adds about 1.5 min for its
-ribbon map the first time).  ``"paper"`` uses hmax
-0.03, steps of 0.05 and finer grids (:data:`PAPER_GRID`; hours on a
-cluster).  Quick figures carry a footnote saying so.
+Quality: ``"quick"`` is the fold map at hmax 0.1 (:data:`QUICK_GRID`);
+``"paper"`` hmax 0.03 and finer grids (:data:`PAPER_GRID`).  Quick figures
+carry a footnote saying so.
 
-Drawing convention (fig2, fig4, fig5): solid lines and filled markers are
-the curvature-dominated mode, dashed lines and open markers the
-gravity-dominated one, only stable points (stability unknown counts as
-stable).  Where a row is bistable both branches are drawn, each up to its
-fold, with a dotted arrow at each fold for the jump to the other branch;
-elsewhere the two branches coincide and one curve is drawn, solid below the
-transition length and dashed above (:func:`skfem_sheet.studies.foldmap.modes`; at
-a/R = 0 there is no curvature-dominated mode).  Map points that failed are
-left out and counted in the legend.
+Drawing convention (fig2, fig4, fig5): solid lines and filled markers the
+curvature-dominated mode, dashed lines and open markers the gravity-dominated
+one, stable points only; a bistable row has both branches, each to its fold
+with a dotted arrow for the jump; elsewhere one curve, solid below the
+transition length and dashed above (:func:`skfem_sheet.studies.foldmap.modes`).
 
-Modules: one per figure (``figure2`` ... ``figure7``: its points, its data
-and its drawing); ``common`` (qualities, grids, settings), ``data`` (the
-fold-map points, table and rows; the one module that imports the studies),
-``cache`` (the one cached-table helper, written through
-:func:`skfem_sheet.io.atomic_write`), ``style`` (shared drawing), ``registry``
-(:data:`FIGURES`, :func:`make_figure`), ``work`` (what a figure's data cost:
-:class:`DataStep`, :class:`FigureRun`, the summary table), ``batch``
-(:func:`make_all`: every figure in one run, ``figure all``).  The modules are named ``figureN``,
-not ``figN``, so that ``skfem_sheet.figures.fig2`` stays the function.
-
-Adding a figure: a module ``figureN.py`` with ``figN_points`` (if it reads
-the fold map), ``draw_figN`` (from tables) and ``figN(quality, data_dir,
-progress, workers, log) -> matplotlib Figure`` (passing ``log`` to its data
-functions, which append their :class:`DataStep`); add ``figN`` to
-:data:`FIGURES` (the command line's choices are its keys, and ``figure all``
-draws them all) and its names here.
+Modules: one per figure (``figureN``: its points, data and drawing; named so
+that ``skfem_sheet.figures.figN`` stays the function); ``common``, ``data``
+(the one module that imports the studies), ``cache``, ``style``,
+``registry`` (:data:`FIGURES`, :func:`make_figure`), ``work`` and ``batch``
+(:func:`make_all`, ``figure all``).  A new figure is a module ``figureN.py``
+with ``figN(quality, data_dir, progress, workers, log)`` added to
+:data:`FIGURES`.
 
 Examples
 --------

@@ -1,40 +1,22 @@
 """Every figure in one run (``python -m skfem_sheet figure all``): :func:`make_all`.
 
 The figures are drawn one after the other into ``out_dir/<name>.png`` from
-one data folder, so they share what the caches already share: the fold-map
-table (fig2, fig4, fig5 and fig6 ask it for their points; fig5's are fig2's,
-fig4's b/a = 0 and 1 rows are fig2's, fig6's rows below the cusps partly
-fig2's and fig4's) and the fold-curve table (fig6's two curves, a/R = 2.5 and
-5, are two of fig7's 18).  fig7 is drawn before fig6 (:func:`run_order`), so
-that all 18 curves are traced in one batch over the workers, longest first,
-instead of fig6's two first and the other 16 after them; likewise fig2's and
-fig4's rows are computed in one batch before fig2 is drawn
-(:data:`SHARED_ROWS`).  fig3, figS1, figS3
-and figS4 keep their own solves; the ribbon curves of fig5 and the ribbon map
-of fig6 are on different length grids and are not shared.  Those four are
-drawn in one process of their own beside the others where the others
-compute on two workers or more (:data:`ALONGSIDE`, :func:`plan`).
+one data folder, so they share the fold-map table and the fold-curve table.
+:func:`run_order` draws fig7 before fig6, so that all 18 fold curves are
+traced in one batch over the workers, and fig2's and fig4's rows are
+computed in one batch (:data:`SHARED_ROWS`).  fig3, figS1, figS3 and figS4
+keep their own solves and run in one process beside the others where those
+compute on two workers or more (:data:`ALONGSIDE`, :func:`plan`).  On a Dask
+cluster (``scheduler``) the fold-map rows and fold curves are the cluster's
+tasks, journalled here as a local run's are, the curves in the rows' batch
+(:data:`CURVES_WITH_ROWS`); what writes files of its own stays on this
+machine.
 
-On a Dask cluster (``scheduler``, ``figure all --scheduler ADDRESS``) the
-fold-map rows and the fold curves are the cluster's tasks (through the
-studies' runner, as ``sweep`` and ``fold-map`` run theirs: the records come
-back here and are journalled in the data folder, so the run resumes from it
-like a local one, with or without the cluster), the fold curves in the same
-batch as fig2's and fig4's rows (:data:`CURVES_WITH_ROWS`: on many workers
-the rows alone leave most of them idle while the longest rows finish); what
-writes files of its own (fig3, figS1, figS3, figS4 and their caches) and the
-ribbon model stay on this machine, those four in the process beside
-(:func:`plan`).
-
-One progress bar (stderr) counts the figures; the bar of the step under way
-(the fold map, the fold curves, a figure's solves) shows below it while it
-runs.  At the end, :func:`make_all` writes the summary
-(:func:`skfem_sheet.figures.work.summary_text` and ``summary_json``) into
-``out_dir/summary.txt`` and ``out_dir/summary.json``: per figure its wall
-time, solves, factorisations, units computed and cached, and what dominated.
-A figure that fails is recorded there (its error) and the others are drawn;
-Ctrl-C writes the summary of the figures finished in this process and
-stops (the side process is killed; what its figures cached stays).
+:func:`make_all` writes ``out_dir/summary.txt`` and ``summary.json``
+(:mod:`skfem_sheet.figures.work`: per figure its wall time, solves,
+factorisations, units computed and cached).  A figure that fails is recorded
+there and the others are drawn; Ctrl-C writes the summary of the figures
+finished and stops.
 
 Examples
 --------

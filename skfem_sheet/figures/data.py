@@ -49,9 +49,8 @@ _MODES = ("curvature_dominated", "gravity_dominated")
 #: Half-width (L/a) of the lengths a point's transition is traced over on its
 #: own mesh, around the transition on the coarse mesh (:func:`transition_rows`).
 #: It sets only the cost: a windowed row whose steepest interval is not inside
-#: its window is replaced by the whole row.  (Measured at hmax 0.03 from 0.1,
-#: b/a 0.55 at a/R 2.5 and 0.3 at a/R 5: the coarse and the fine transitions
-#: were the same, 1.25078125 and 1.7125, and so were the windowed rows'.)
+#: its window is replaced by the whole row (``docs/decisions.md``, "The
+#: transition window").
 TRANSITION_WINDOW = 0.2
 
 
@@ -158,20 +157,14 @@ def transition_rows(points, quality: str = "quick", data_dir=DEFAULT_DATA_DIR, p
     """Fold-map rows that give the transition length of each of ``points``
     (Fig. 6's markers where the transition is continuous).
 
-    :func:`~skfem_sheet.studies.foldmap.transition_length` reads one number
-    from such a row, where the names of the curvature-dominated branch's
-    points change (as ``solve`` names them), and that needs the branch on the
-    fine mesh only around it.  So each point is first computed on the coarse mesh its
-    branches are guided by (:func:`~skfem_sheet.studies.foldmap.row_coarse_hmax`:
-    its whole range of lengths, the same step), and then on its own mesh
-    over the lengths within :data:`TRANSITION_WINDOW` of the coarse
-    transition, on the same grid of lengths (:func:`transition_window`).  A
-    windowed row serves where its steepest interval lies inside its window
-    and it has no fold; otherwise -- and for points with a fold on the
-    coarse mesh, points in ``full`` (drawn whole by another figure) or
-    without a coarser mesh (the quick quality) -- the point's whole row is
-    used.  Every row is a point of the quality's fold-map table (journalled,
-    resumable).
+    The transition needs the branch on the fine mesh only around it: each
+    point is computed on its coarse mesh
+    (:func:`~skfem_sheet.studies.foldmap.row_coarse_hmax`), then on its own
+    mesh within :data:`TRANSITION_WINDOW` of the coarse transition
+    (:func:`transition_window`).  A windowed row serves where its steepest
+    interval lies inside its window and it has no fold; otherwise (and for
+    points with a coarse fold, in ``full``, or without a coarser mesh) the
+    whole row is used.  Every row is a point of the fold-map table.
 
     Returns
     -------
@@ -274,12 +267,8 @@ def on_workers(chunks, workers, task):
     (the studies' pool, :func:`~skfem_sheet.studies.runner.pool`), or on the
     Dask cluster of a :class:`~skfem_sheet.studies.runner.Workers`
     (:func:`~skfem_sheet.studies.runner.on_executor`), yielding each chunk's
-    list of results as it finishes; a point whose worker failed is None in it
-    (the caller computes it again in its own process, where the error is
-    raised).  The figures' one door to the worker pool, as this module is to
-    the studies (with :func:`~skfem_sheet.studies.runner.beside`, one task on
-    a process of its own, :class:`~skfem_sheet.studies.runner.Workers` and
-    :func:`~skfem_sheet.studies.runner.dask_client`, re-exported here)."""
+    results as it finishes (None for a point whose worker failed: the caller
+    computes it again).  The figures' one door to the worker pool."""
     yield from on_executor(chunks, workers, task, lambda point, message, error: None)
 
 
@@ -385,10 +374,8 @@ def _snapped_from_message(row, which) -> bool:
 def branch_snapped(row, which: str) -> bool:
     """Whether ``which`` branch of a fold-map row did not exist where its continuation started.
 
-    Read from the row's boolean column ``<which>_snapped`` (the branch's
-    ``start_snapped`` flag: its continuation started on the other branch, so
-    its points are the other branch's).  Rows without the column (or with it
-    missing) are old rows: their message is read instead
+    Read from the row's column ``<which>_snapped`` (the branch's
+    ``start_snapped``), or, in rows without it, from the message
     (:func:`_snapped_from_message`).
 
     Examples
@@ -415,14 +402,10 @@ def row_branches(row) -> dict:
     Returns
     -------
     dict
-        ``curvature_dominated`` and ``gravity_dominated``: ``(L, d)`` arrays
-        of the stable points (stability unknown counts as stable) of each
-        branch, sorted by L, empty if the branch did not exist where its
-        continuation started (:func:`branch_snapped`: its points would lie
-        on the other branch); ``bistable``; ``popup_length`` (L0*),
-        ``standout_length`` (L1*); ``transition_length`` (non-bistable rows:
-        where the single curve passes from the curvature- to the
-        gravity-dominated mode; None for a flat clamp or no curve);
+        ``curvature_dominated`` and ``gravity_dominated``: ``(L, d)`` of each
+        branch's stable points, sorted by L (empty where the branch did not
+        exist at its start, :func:`branch_snapped`); ``bistable``;
+        ``popup_length``, ``standout_length``; ``transition_length``;
         ``usable`` (False for a failed point).
 
     Examples

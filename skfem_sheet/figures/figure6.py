@@ -112,9 +112,7 @@ def fig6_ribbon(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True, worke
         return have == want and len(df) == len(want)
 
     def compute():
-        # one pool per curvature, the bar moved by each shape (measured at
-        # paper quality, 2 workers: 59.6 s against 63.2 s for a pool per
-        # four shapes, the same table)
+        # one pool per curvature, the bar moved by each shape
         n = workers if workers is not None else 1
         rows = []
         with tqdm(total=len(_FIG6_CURVATURES) * tips.size, desc="fig6 ribbon map",

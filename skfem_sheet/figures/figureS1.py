@@ -116,7 +116,7 @@ def figS1_data(quality="quick", data_dir=DEFAULT_DATA_DIR, progress=True,
     processes, the finest first (:func:`~skfem_sheet.figures.data.on_workers`);
     None: one per CPU, at most two (at paper quality the finest solve alone
     peaks at 6.1 GB, and the two finest at once about 10 GB, estimated from
-    their unknowns, not measured as a sum); 1: one after the other in this
+    their unknowns); 1: one after the other in this
     process.
     ``log``: a list to append the step's
     :class:`~skfem_sheet.figures.work.DataStep` to (the solves run now, their

@@ -1,70 +1,29 @@
 """Fold curves of the 3D sheet in (L, b) at a fixed clamp curvature (or in (L, a/R)), and the cusp.
 
 The pop-up and standout lengths ``L0*(b)`` and ``L1*(b)`` (paper, Figs. 6
-and 7) are the two halves of one *fold curve* in the plane of the length
-``L`` and the tip width ``b``: from ``L1*`` at ``b = 1`` it runs down in
-``b`` to the *cusp*, where the two folds meet and the bistable range closes,
-and back up as ``L0*(b)``.  :func:`trace_fold_curve` traces it directly with
-the continuation engine (:mod:`skfem_sheet.engine`): the fold is located once
-at ``b = 1`` by natural continuation in L, then continued in ``(L, b)`` with
-the minimally augmented system, each point a few factorisations of the
-tangent; the cusp is located where the quadratic fold coefficient changes
-sign, and every point is classified from the side on which the branch
-exists: ``"standout"`` (the curvature-dominated branch exists below the
-fold's length) or ``"popup"`` (the gravity-dominated one exists above).
-:func:`trace_curvature_fold_curve` does the same in ``(L, a/R)``.
+and 7) are the two halves of one *fold curve* in the plane ``(L, b)``: from
+``L1*`` at ``b = 1`` down to the *cusp*, where the two folds meet and the
+bistable range closes, and back up as ``L0*(b)``.  :func:`trace_fold_curve`
+locates the fold at ``b = 1`` by natural continuation in L and continues it
+in ``(L, b)`` with the minimally augmented system
+(:mod:`skfem_sheet.engine`); the cusp is where the quadratic fold
+coefficient changes sign, and each point is a ``"standout"`` or ``"popup"``
+fold by the side on which its branch exists.
+:func:`trace_curvature_fold_curve` does the same in ``(L, a/R)``.  The sheet
+is :class:`~skfem_sheet.sheet_shape.SheetFoldProblem`: one mesh mapped to
+each ``(L, b)`` and remeshed by the one remesh rule of
+:mod:`skfem_sheet.sheet_shape`.
 
-The sheet is the engine problem :class:`~skfem_sheet.sheet_shape.SheetFoldProblem`:
-one mesh, made at ``(L_m, b_m)``, carried to ``(L, b)`` by the map of the
-trapezoid (topology and dof numbering kept, so that a nodal state at one
-``(L, b)`` is a valid state at the next) and remeshed by the one remesh rule
-of :mod:`skfem_sheet.sheet_shape`: the state (and the null vector) are
-interpolated onto the new mesh, the fold is located again there and the
-curve continues from it.  The standout fold at ``b = 1`` is found the same
-way, by natural continuation in L remeshed every
-:data:`~skfem_sheet.sheet_shape.REMESH_STRETCH`; a clamp curvature whose
-curvature-dominated branch reaches the end of the length range without a
-fold is *not bistable* there, and :attr:`FoldCurve.bistable` says so.
+Coarse to fine (``coarse_hmax``): the curve is traced on a coarse mesh and a
+few of its points (the ends, points spaced evenly, the cusp's neighbours)
+are carried level by level onto finer meshes and corrected there with the
+minimally augmented system (:mod:`.refine`); the cusp is then located on the
+fine mesh (:mod:`.cusp`), and an end that does not converge there is traced
+on that mesh instead (:func:`~skfem_sheet.foldcurve.refine.continue_to_end`).
 
-Coarse to fine (``coarse_hmax``, what the fold map does below hmax 0.1): the
-curve is traced as above on a coarse mesh, and a few of its points (both
-ends, points spaced evenly in the parameter plane, the neighbours of the
-cusp) are carried onto the fine mesh (state and null vector) and corrected
-there with the minimally augmented system -- the ends as folds in L at the
-start value, the others on the hyperplane through the coarse point normal to
-the coarse curve (transversal to the curve also at the cusp) -- level by
-level (hmax 0.1, 0.06, then the fine mesh: a single jump from 0.1 to 0.03
-leaves points outside Newton's basin).  A fine point costs a few
-factorisations at the fine mesh; no load path or continuation runs there.
-The cusp is then located on the fine mesh where the refined points' fold
-coefficient changes sign: a few more fold points there, on sections of
-fixed tip deflection, by the secant on the coefficient
-(:func:`~skfem_sheet.foldcurve.cusp.cusp_by_coefficient`; ``cusp_located``
-"fold coefficient on the fine mesh", its cost in
-:attr:`FoldCurve.cusp_factorizations`); without a sign change, the vertex
-of the parabola through the three refined points of smallest ``b``
-("refined points").  An end that does not converge on the finer mesh (at
-a/R = 1 the two folds at b = 1 lie 0.0013 apart in L/a and 0.01 below the
-coarse ones from hmax 0.1 to 0.06) is traced there instead: the fold curve
-is continued on that mesh from the refined point next to it to the start
-value (:func:`~skfem_sheet.foldcurve.refine.continue_to_end`; used only
-where the refinement of an end fails).
-
-Modules
--------
-:mod:`.options`
-    :class:`FoldCurveOptions` (what a trace is asked for), the tolerances
-    and rules of the trace, :func:`default_start_length`;
-:mod:`.result`
-    :class:`FoldCurve`;
-:mod:`.trace`
-    the direct trace on the sheet's own (remeshed) mesh;
-:mod:`.refine`
-    coarse to fine (:class:`~.refine.RefinedPoint`), and :func:`~.refine.run`;
-:mod:`.cusp`
-    the cusp, three ways;
-:mod:`.series`
-    the states of a curve as a ParaView series.
+Modules: :mod:`.options` (what a trace is asked for, its tolerances),
+:mod:`.result` (:class:`FoldCurve`), :mod:`.trace` (the direct trace),
+:mod:`.refine` (coarse to fine), :mod:`.cusp`, :mod:`.series` (ParaView).
 """
 from __future__ import annotations
 

@@ -14,13 +14,9 @@ __all__ = ["FINE_TOLERANCES", "MAX_REMESHES", "MESH_LENGTH_GRID", "PREDICTOR", "
            "default_start_length", "kind"]
 
 #: Predictor of the fold-curve continuation (see :func:`skfem_sheet.engine.fold_curve`).
-#: Measured at hmax 0.1 (a/R 2.5): the quadratic predictor with step control
-#: by the first correction halves the points (30 instead of 57) but not the
-#: factorisations (335 instead of 362): Newton's basin for the thin sheet is
-#: small (a first correction above about 0.005 a diverges, the membrane
-#: stiffness turning small predictor errors into residuals of the order of
-#: the weight), so longer steps fail and are halved.  Hence the tangent
-#: predictor with the iteration-count rule.
+#: The tangent, with the iteration-count rule: Newton's basin for the thin
+#: sheet is small, so the longer steps of a quadratic predictor fail and are
+#: halved (``docs/decisions.md``, "The fold curves' predictor").
 PREDICTOR = "tangent"
 #: Step control by the first correction (None: by the iteration count).
 TARGET_CORRECTION = None
@@ -36,12 +32,7 @@ MAX_REMESHES = 40
 #: iterate within ``utol`` of the fold (``error_estimate``, see
 #: :class:`~skfem_sheet.engine.Tolerances`): a fine point is then known to
 #: about 1e-5 a, and the linearisation that would only confirm it is not
-#: made.  Measured at a/R 1.5 and 2.5 (hmax 0.03 from 0.1 and 0.06): 2
-#: linearisations instead of 3 for most fine points, 3 instead of 5 next to
-#: the cusp; L1* and L0* moved by 1e-5 to 2.3e-5, the cusp by at most 4e-5
-#: in b/a (not traced further; presumably mostly through the fine meshes,
-#: made at the median length of the points carried to them, which moves
-#: with those points), against 1e-3 to 2e-3 between hmax 0.06 and 0.03.
+#: made (``docs/decisions.md``, "Error-estimate stops").
 FINE_TOLERANCES = Tolerances(rtol=3e-2, utol=1e-5, max_iterations=10, max_correction=0.3,
                              error_estimate=True)
 
@@ -67,18 +58,14 @@ SETTLE_STEP = Tolerances(rtol=np.inf, utol=FINE_TOLERANCES.max_correction, max_i
 #: coarse to fine (its points only seed the finer levels, which correct
 #: them again): :data:`TOLERANCES` with Newton's error estimate
 #: (``error_estimate``, see :class:`~skfem_sheet.engine.Tolerances`), so that
-#: a point is not linearised once more only to confirm it.  Measured at
-#: hmax 0.03 from 0.1 and 0.06 (a/R 3.5 and 5): the coarse traces took 335
-#: and 371 factorisations instead of 378 and 396 (49 and 51 points instead
-#: of 61 and 60: with fewer linearisations per point the step grows more
-#: often), L1* and L0* the same to 1e-14, the cusp to 2e-7 in b/a.
+#: a point is not linearised once more only to confirm it
+#: (``docs/decisions.md``, "Error-estimate stops").
 SEED_TOLERANCES = dataclasses.replace(TOLERANCES, error_estimate=True)
 
 #: The fine meshes of a refinement are made at lengths on this grid (L/a):
 #: the median of the lengths carried to a level, rounded.  A mesh made at
 #: another length is another unstructured mesh, and at hmax 0.03 that moves
-#: the fold lengths by up to 1e-4 (measured: a/R 3.5, a median 1.4e-5 longer
-#: from Newton's round-off moved L1* by 1.2e-4); on the grid the meshes, and
+#: the fold lengths by up to 1e-4; on the grid the meshes, and
 #: so the fine folds, do not follow round-off in the coarse points.  Any
 #: length within a few per cent serves (a mesh covers a stretch of
 #: REMESH_STRETCH either way).

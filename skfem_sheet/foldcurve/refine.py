@@ -249,11 +249,7 @@ def settled_fold(P, section, name, u, p, v, tol, settle_first=False):
     comes from) the two are tried the other way round: the carried state's
     distance to the fold comes from the difference of two meshes, of one
     order from one level to the next, so a point that left the basin on one
-    level leaves it on the next too (measured at paper quality, hmax 0.06
-    to 0.03 at a/R 3.5 and 5: 6 of 6 such points, whose failed direct tries
-    cost 3 linearisations each, or 7 for one that got there; but at hmax
-    0.15 to 0.1, a/R 3.5, the one such point converged directly, and the
-    settle cost 3 linearisations more).
+    level leaves it on the next too.
     Returns ``(fold or None, result, factorisations of the failed tries,
     settled)``: ``settled`` whether the fold was located from the settled
     state; without a fold, ``result`` is the last try's (all tries failed).

@@ -103,9 +103,8 @@ def standout_fold(make, P, u, p, hi, tol):
     reason)``; ``reason`` is ``""`` when the branch reached ``hi`` without a fold."""
     # a step past the fold is given up once a correction outgrows the one
     # two linearisations before (the rows' continuation in L does the same,
-    # ``Tolerances.pair_contraction``): measured at hmax 0.1, a/R 1.5, 3.5
-    # and 5, 79, 84 and 87 factorisations instead of 101, 100 and 125, the
-    # same folds
+    # ``Tolerances.pair_contraction``): a step that cannot converge stops
+    # early instead of using its whole budget
     steps = dataclasses.replace(tol, pair_contraction=True)
     nfact, retries = 0, 0
     for _ in range(MAX_REMESHES + 1):

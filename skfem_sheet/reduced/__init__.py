@@ -1,6 +1,6 @@
 """Reduced-order models of a curved, clamped sheet sagging under its own weight.
 
-Issue 7; paper main text "Reduced-order modeling" and supplement
+Paper main text "Reduced-order modeling" and supplement
 "Reduced-order theory: small plate rotations" / "large plate rotations".
 Every model takes a :class:`skfem_sheet.params.Sheet` (dimensionless, base
 width a = 1, rho g = 1) and reports deflections positive downward.

@@ -43,46 +43,15 @@ Departures from the printed text
   model equals the heavy elastica only with ``impose_flat=True`` (ERRATA); see
   the next section.
 
-Flat clamp: why c free is softer than the heavy elastica
---------------------------------------------------------
+Flat clamp: c free is softer than the heavy elastica
+----------------------------------------------------
 At a/R = 0 the heavy elastica (eq. phODE2, plate modulus D) is the wide-plate
-limit; the ribbon model with c free is softer, by 1.9 % for the rectangle at
-L = 0.5 falling to 0.5 % at L = 0.7 and to about 0.01 % from L = 1.4 on, and by
-36 % / 4.1 % / 0.12 % for the triangle at L = 0.5 / 1.0 / 1.8.  This is the
-model's physics, not a discretisation or coding error: the numbers agree to
-nine digits for 24 to 192 elements, the natural conditions at s = L hold to
-1e-10, and the energy is the paper's term by term (see
-:func:`ribbon_energy_terms`).
-Two couplings make c non-zero when the sheet bends (Phi' < 0):
-
-- Poisson: D nu c (Phi' p + c'' p^3/4!) is the one term linear in c, so
-  bending induces the anticlastic curvature c ~ -nu Phi' (edges up), opposed
-  by the clamp (c = c' = 0 at s = 0) and by the stretching it causes.
-  Minimising pointwise, c = -nu Phi'/(1 + beta^2/60) and the bending stiffness
-  is D [1 - nu^2/(1 + beta^2/60)], with the Searle parameter
-  beta = p^2 |Phi'|/h: the beam modulus E h^3/12 = D (1 - nu^2) for narrow or
-  weakly bent sections (beta << 8), the plate modulus D for wide, strongly
-  bent ones.  Short sheets are the least bent: for the rectangle beta at the
-  root is 56 / 100 / 152 at L = 0.5 / 0.7 / 1.0 (elastica curvature), and the
-  bending-energy-weighted mean of nu^2/(1 + beta^2/60) is 1.4 / 0.55 / 0.30 %
-  (the clamp suppresses c further over about one width from the root).
-  Besides, the tip's t = 0 point, where d is measured (as in the 3D
-  solver), lies c(L) p(L)^2/4! below the tip's centre of mass: for the
-  rectangle at L = 0.5 that is 1.33 of the 1.92 %.  With nu = 0 the
-  rectangle's difference vanishes (to 1e-6).
-- Taper: for p' != 0 the centre of mass line lies c p^2/4! off the material
-  lines, so B_ss = phi' + c'' (t^2/2 - p^2/4!) - (4 c' p p' + 2 c p'^2)/4!
-  couples c to phi' even at nu = 0 (the triangle is still 14 % softer at
-  L = 0.5): a cylindrically bent plate violates the moment-free condition on
-  slanted free edges.
-
-The 3D solver, the ground truth, deviates from the elastica in the same
-direction and by more (hmax 0.03): rectangle +2.4 / +1.6 / +0.5 % at
-L = 0.5 / 0.7 / 1.0, rising under refinement (+3.2 % at L = 0.5, hmax 0.02);
-triangle +37 % / +8.3 % at L = 0.5 / 1.0.  The ribbon model lies between the
-elastica and the 3D answer, so the elastica, not the ribbon model, is the
-poor reference for short or tapered sheets
-(``benchmarks/results/accuracy/ribbon_vs_elastica.txt``).
+limit; the ribbon model with c free is softer, through the Poisson coupling
+(c ~ -nu Phi', Searle's parameter beta = p^2 |Phi'|/h) and, for p' != 0, the
+taper's coupling of c to phi'.  This is the model's physics, not a
+discretisation error, and the 3D solver deviates from the elastica in the
+same direction and by more (``docs/decisions.md``, "The ribbon model at a
+flat clamp"; ``benchmarks/results/accuracy/ribbon_vs_elastica.txt``).
 
 Sign convention: phi < 0 when the sheet droops; the deflection
 

@@ -1,26 +1,14 @@
 """Bistability map: pop-up and standout lengths over a grid of (tip width, curvature).
 
 For every point ``(b/a, a/R)`` of a grid, :func:`~skfem_sheet.bistability.fold_lengths`
-follows the curvature-dominated branch from a short sheet with increasing L
-and the gravity-dominated one from a long sheet with decreasing L, and locates
-their folds, the standout length ``L1*`` and the pop-up length ``L0*``
-(paper, Figs. 6 and 7), with the minimally augmented system on the point's
-own mesh (to :data:`~skfem_sheet.bistability.FOLD_TOL`; a row that finds no
-fold says why in ``curvature_dominated_reason`` /
-``gravity_dominated_reason``).  :func:`fold_map` runs the points in parallel (local
-processes, or a Dask cluster) into one tidy table, one row per point, with
-both branch curves ``d(L)`` stored in it; it runs on the same runner as
-:func:`skfem_sheet.studies.sweep.run_sweep` (:mod:`skfem_sheet.studies.runner`:
-journal, atomic table, executors), so an interrupted map resumes where it
-stopped and a finished one computes nothing again.
-
-From the table:
-
-- :func:`critical_tip_width`: for each curvature, the shape factor
-  ``(b/a)*`` below which no length is bistable (where ``L0* = L1*``);
-- :func:`modes`: which modes (curvature-dominated, gravity-dominated) exist
-  at given lengths -- the markers of Fig. 6;
-- :func:`branch_curve`: the branch data ``(L, d, stable)`` of a row.
+locates the standout length ``L1*`` and the pop-up length ``L0*`` (paper,
+Figs. 6 and 7) on the point's own mesh; a row that finds no fold says why
+(``curvature_dominated_reason`` / ``gravity_dominated_reason``).
+:func:`fold_map` runs the points in parallel into one resumable table with
+both branch curves ``d(L)`` (:mod:`skfem_sheet.studies.runner`).  From the
+table: :func:`critical_tip_width` (the shape factor ``(b/a)*`` below which no
+length is bistable), :func:`modes` (which modes exist at given lengths, the
+markers of Fig. 6), :func:`branch_curve` (a row's ``(L, d, stable)``).
 
 Command line (:mod:`skfem_sheet.cli.fold_map`)::
 
@@ -363,16 +351,11 @@ def branch_curve(row, which: str = "curvature_dominated"):
 def transition_length(row) -> float | None:
     """Where the curvature-dominated mode gives way to the gravity-dominated one.
 
-    For a bistable row there are two (``L0*`` and ``L1*``) and this returns
-    None.  Otherwise: the single fold found, if there is one; else (the
-    transition is continuous) the middle of the interval of the
-    curvature-dominated branch where the names of its points (as ``solve``
-    names a state, :mod:`skfem_sheet.analyses.mode`) change from
-    curvature- to gravity-dominated, so that the figures mark the modes as
-    the solver names them; for a row without names (tables from before they
-    were stored) the middle of the steepest interval of ``d(L)``; None for a
-    flat curve (``a/R = 0``, where there is no curvature-dominated mode to
-    lose).
+    None for a bistable row (two: ``L0*`` and ``L1*``).  Otherwise the single
+    fold found; else the middle of the interval where the names of the
+    curvature-dominated branch's points (:mod:`skfem_sheet.analyses.mode`)
+    change; for a row without names the middle of the steepest interval of
+    ``d(L)``; None for a flat clamp.
 
     Examples
     --------

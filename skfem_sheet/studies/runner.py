@@ -1,39 +1,24 @@
 """The study runner: many independent points as one resumable, parallel job.
 
 A *study* (the sweep, :mod:`skfem_sheet.studies.sweep`; the fold map,
-:mod:`skfem_sheet.studies.foldmap`) is a list of points (dicts of input
-parameters), each computed on its own into one *record* (a flat dict: the
-parameters and the outputs).  The runner does everything else, the same way
-for every study:
+:mod:`skfem_sheet.studies.foldmap`) is a list of points, each computed on its
+own into one flat *record*.  The runner does everything else, the same way
+for every study: the points' **keys** (:func:`normalize_params`,
+:func:`hash_key`: numbers rounded to 10 significant digits); the **journal**
+beside the table (:func:`journal_path`, :class:`Journal`: one JSON line per
+finished record, one ``os.write`` on an ``O_APPEND`` descriptor, then
+``os.fsync``; :func:`read_journal` ignores a line cut short and keeps the
+last of equal keys); the **table**, rebuilt from the journal and replaced
+atomically (:func:`write_table`); **resume** (a journalled key is not
+computed again, unless ``retry_failed`` and not converged); the
+**executors** (this process, ``spawn``-ed local processes, :func:`pool`, or
+a Dask cluster, :func:`dask`); **Ctrl-C** (:class:`StudyInterrupted`: the
+points in flight abandoned within about a second, the table written); and
+**failures** (:func:`record_failure`, :func:`finish_record`).
 
-- **keys**: a point is identified by a hash of its normalised parameters
-  (:func:`normalize_params`, :func:`hash_key`); numbers are rounded to 10
-  significant digits, so float noise does not make a new point;
-- **journal**: every finished record is appended at once to a journal beside
-  the table, ``<table>.journal.jsonl`` (:func:`journal_path`): one JSON line,
-  written by the parent process with a single ``os.write`` on an ``O_APPEND``
-  descriptor, then ``os.fsync`` (:class:`Journal`).  A line cut short by a
-  crash is ignored when reading, and lines with the same key are collapsed,
-  the last wins (:func:`read_journal`);
-- **table**: rebuilt from the journal and replaced atomically
-  (:func:`skfem_sheet.io.atomic_write`) every 30 s and at the end, so it is
-  never half written (:func:`write_table`; CSV or Parquet by suffix);
-- **resume**: a point whose key is already in the journal is not computed
-  again (unless ``retry_failed`` and its record is not converged);
-- **executors**: this process (``workers=1``), ``spawn``-ed local processes
-  (:func:`pool`; a point that kills its worker is recorded as failed and the
-  others go on) or a Dask cluster (:func:`dask`);
-- **Ctrl-C**: the points in flight are abandoned within about a second (their
-  workers killed), the table is written, and :class:`StudyInterrupted` (a
-  ``KeyboardInterrupt``) says how many points are finished and kept, and where;
-- **failures**: an exception while computing a point is put into its record
-  (:func:`record_failure`); every record is stamped when it finishes
-  (:func:`finish_record`: time, host, process) and made JSON-ready.
-
-A study describes its kind of point with a :class:`Job` (usually with an
-:class:`EachPoint` task and a :func:`failed_record` for points whose task
-died), checks its arguments (:func:`study_points`, :func:`check_run`) and calls
-:func:`execute`.
+A study describes its kind of point with a :class:`Job` (usually an
+:class:`EachPoint` task and a :func:`failed_record`), checks its arguments
+(:func:`study_points`, :func:`check_run`) and calls :func:`execute`.
 """
 from __future__ import annotations
 
@@ -330,9 +315,8 @@ def table_records(done, order) -> list:
 class StudyInterrupted(KeyboardInterrupt):
     """Ctrl-C during a study: what was kept, and where.
 
-    A ``KeyboardInterrupt`` (code that catches that catches this); its text
-    says how many of the study's points are finished and kept, in which table,
-    and how to go on.
+    A ``KeyboardInterrupt``; its text says how many of the study's points are
+    finished and kept, in which table, and how to go on.
 
     Attributes
     ----------
@@ -405,14 +389,10 @@ class EachPoint:
     """A study's chunk task: its points computed in sequence, one record each, in order.
 
     ``EachPoint(module, name)(points)`` is ``[run(p) for p in points]`` with
-    ``run = module.name``, a module-level function ``run(point) -> record``
-    that catches the exceptions of its computation (:func:`record_failure`).
-    With ``shared``, ``[run(p, context) for p in points]`` with ``context =
-    module.shared()`` made once for the chunk (e.g. the build chain that the
-    points of one mesh share; it lives as long as the chunk's task).
-    The functions are looked up by name when the task runs: the task pickles as
-    strings (a spawned worker imports the module), and a function replaced
-    on its module (a test's stand-in) is the one called.
+    ``run = module.name`` (catching its computation's exceptions,
+    :func:`record_failure`); with ``shared``, ``run(p, context)`` with
+    ``context = module.shared()`` made once for the chunk.  The functions are
+    looked up by name when the task runs, so the task pickles as strings.
 
     Attributes
     ----------
@@ -627,8 +607,8 @@ def _stop_pool(ex, kill):
     (``kill=True``: the points in flight are abandoned, their workers killed).
 
     The workers are taken before ``shutdown``, which forgets them: killed
-    after it, they went on with their points, and the interpreter's exit
-    waited for those (measured: 37-67 s after Ctrl-C on a sweep).
+    after it, they would go on with their points, and the interpreter's exit
+    would wait for those.
     """
     if not kill:
         ex.shutdown(wait=True)
@@ -721,13 +701,10 @@ def pool(chunks, n_workers, task, failed):
 def beside(task, *args):
     """Run ``task(*args)`` on one spawned process while the caller goes on.
 
-    Yields the task's :class:`concurrent.futures.Future`.  The process is a
-    worker of :func:`pool`'s kind (it ignores Ctrl-C, which is the caller's
-    business, exits if the caller dies, one BLAS/MKL thread unless
-    ``OMP_NUM_THREADS``/... are set).  Leaving the block normally waits for
-    the task; leaving it by an exception (Ctrl-C included) kills the process
-    and its task's work is lost.  ``task`` must be importable (a module-level
-    function), as for :func:`pool`.
+    Yields the task's :class:`concurrent.futures.Future`, on a worker of
+    :func:`pool`'s kind (one BLAS thread unless set).  Leaving the block
+    normally waits for the task; leaving it by an exception (Ctrl-C
+    included) kills the process.  ``task`` must be a module-level function.
 
     Examples
     --------
@@ -781,13 +758,10 @@ class Workers:
     """Where the tasks of a batch run: the Dask cluster of ``scheduler``, or
     ``local`` processes of this machine.
 
-    The value a caller that forwards a number of workers (the figures, their
-    ``workers`` argument) forwards instead, so that the studies under it
-    (:func:`execute`: the fold map, the fold curves) and :func:`on_executor`
-    run their tasks on the cluster, journalled here as on local processes.
-    Work that stays on this machine (what writes files of its own, or is
-    cheap) takes it as a number: ``int(workers)`` is ``local``, or one per
-    CPU of this machine if ``local`` is None.
+    Passed where a number of workers is (the figures' ``workers``), so that
+    the studies under it (:func:`execute`, :func:`on_executor`) run their
+    tasks on the cluster, journalled here; work that stays on this machine
+    takes ``int(workers)``: ``local``, or one per CPU if None.
 
     Attributes
     ----------

@@ -4,79 +4,35 @@
 :func:`run_sweep` solves them on local processes (default), in this process
 (``workers=1``) or on a Dask cluster (``scheduler=``), and returns one tidy
 :class:`pandas.DataFrame` (one row per point).  With ``table="results.csv"``
-(or ``.parquet``) the results survive interruption (the journal, the atomic
-table and the executors are those of :mod:`skfem_sheet.studies.runner`):
+(or ``.parquet``) every finished point is journalled at once beside the
+table, the table is rebuilt from the journal atomically, and a point whose
+key is in the journal is not computed again, so an interrupted sweep resumes
+where it stopped (:mod:`skfem_sheet.studies.runner`).
 
-- every finished point is appended at once to a journal beside the table,
-  ``results.csv.journal.jsonl`` (one JSON line per point, fsync-ed).  A line
-  cut short by a crash is ignored when reading, and lines with the same key
-  are collapsed (the last wins);
-- the table is rebuilt from the journal and replaced atomically every 30 s
-  and at the end, so it is never half written;
-- a point whose key is already in the journal is not computed again, so a sweep
-  killed in any way (Ctrl-C, ``kill -9``, a lost machine) resumes where it
-  stopped, and re-running a finished sweep computes nothing.
+A point's ``key`` is a hash of its input parameters (:data:`PARAMETERS`) and
+of the solve options :data:`OPTIONS` that differ from their frozen key
+defaults (``refine`` 0, ``symmetric`` True, ``start`` "path", ``coarse_hmax``
+0.1: an option at its key default is left out, so older journals keep their
+keys), after normalisation: numbers rounded to 10 significant digits (``1.3``
+and ``1.3000000000000003`` are one point; the rounded values are the ones
+solved).  ``coarse_hmax`` enters as the coarse mesh the point is solved with.
+The package version is a column, not part of the key.
 
-A point is identified by ``key``, a hash of its input parameters (``length,
-tip_width, curvature, thickness, modulus, path, hmax, layers, solver``, and the
-solve options :data:`OPTIONS` -- ``refine``, ``symmetric``, ``start``,
-``coarse_hmax`` -- when they differ from their frozen key defaults
-``0, True, "path", 0.1``, which are not all ``solve``'s defaults: ``start``
-is ``"coarse"`` by default, so a point at the defaults has ``start`` in its
-key) after normalisation: numbers are rounded to 10
-significant digits (and ``-0.0`` is ``0.0``, ``2.0`` layers is ``2``), so
-``1.3``, ``1.30000000001`` and ``np.arange(...)``'s ``1.3000000000000003`` are
-the same point.  ``coarse_hmax`` enters the key (and the table) as the coarse
-mesh the point is solved with: ``solve``'s default, None, is the mesh the
-coarse start chooses for the point's ``hmax`` (0.1 up to hmax 0.05, so those
-keys are the ones they were when 0.1 was the default), and a
-``start="path"`` point has the key default.  The rounded values are the ones solved and stored in the
-table.  A solve option at its key default is left out of the key, so points
-from before it could be swept keep their keys, and a journal line without it
-is a row solved with it at that value (an old row without ``start`` is a
-``start="path"`` row, never reused for a point with the default
-``start="coarse"``).  The package
-version is a column, not part of the key: re-running after an upgrade reuses
-old results (start a new table to recompute them).
+A failed solve, a bad parameter and any other exception of one point are rows
+with ``converged=False``, the reason in ``message`` and the exception class in
+``error``; the sweep carries on (``retry_failed=True`` computes them again).
+Ctrl-C stops the sweep within about a second, keeps the finished points and
+raises :class:`~skfem_sheet.studies.runner.StudyInterrupted`.
 
-A failed solve (full load not reached), a bad parameter (``ParameterError``)
-and any other exception raised while solving one point are rows with
-``converged=False`` and the reason in ``message`` (the exception class in
-``error``); the sweep carries on.  They are finished points too: pass
-``retry_failed=True`` to compute them again.  Ctrl-C stops the sweep within
-about a second (the points in flight are abandoned, the finished ones kept,
-the table written) and raises
-:class:`~skfem_sheet.studies.runner.StudyInterrupted`, a ``KeyboardInterrupt``
-that says what was kept.
-
-Columns of the table (:data:`COLUMNS`): the parameters (:data:`PARAMETERS`,
-then :data:`OPTIONS`), then the outputs of
-:meth:`skfem_sheet.solve.Result.to_record` -- the one definition of a result
-row: ``deflection`` (d/a, positive down), ``converged``, ``message``,
-``branch`` (``Result.branch``: "curvature-dominated" or "gravity-dominated",
-what the end state is, read from the state itself -- its S-curve's bend
-there, :mod:`skfem_sheet.analyses.mode` -- so that one state has one name
-whichever path reached it; rows journalled before this rule carry the load
-path's history instead: recompute them in a new table), ``stable`` (``Result.stable``,
-empty when unknown), ``negative_eigenvalues``, ``snapped``,
-``newton_iterations``, ``load_steps``, ``wall_time_s``, ``assembly_s``,
-``linear_solve_s``, ``dofs``, ``energy``, ``volume_change``, ``kappa_reached``,
-``gravity_reached``, ``factorizations``, ``rejected_steps``, ``linear_solver``
-(back-end used), ``layers_used`` -- and ``version``, ``key``, ``error``,
-``finished_at`` (UTC); and ``bistable`` (:func:`bistable_column`): for a sheet
-solved along both paths, whether the two end states are two distinct stable
-states (empty where a path is missing, failed, or its stability unknown).  The journal lines also hold ``host``, ``pid`` and, for
-exceptions, ``traceback``.
-
-Work is grouped by mesh (``length, tip_width, thickness, hmax, layers, refine,
-symmetric``): the points of one mesh go to the same worker in sequence, in
-chunks, and share one build chain per chunk (:class:`~skfem_sheet.build.BuildChain`:
-the mesh, its space and assembler, and the coarse start's, built once for the chunk).  Local workers are ``spawn``-ed processes
-(safe with MKL and gmsh), each limited to ``cpu_count // workers`` BLAS/MKL
-threads unless ``OMP_NUM_THREADS``/``MKL_NUM_THREADS``/``OPENBLAS_NUM_THREADS``
-are set (Dask workers get one thread from their nanny).  Results do not depend
-on the executor.  Dask needs the ``cluster`` extra: ``pip install
-'skfem_sheet[cluster]'``; Parquet tables need ``pip install 'skfem_sheet[parquet]'``.
+Columns (:data:`COLUMNS`): the parameters, the options, the row of
+:meth:`skfem_sheet.solve.Result.to_record` (the one definition of a result
+row), ``version``, ``key``, ``error``, ``finished_at`` (UTC), and
+``bistable`` (:func:`bistable_column`).  Work is grouped by mesh: the points
+of one mesh go to one worker in chunks that share one
+:class:`~skfem_sheet.build.BuildChain`.  Local workers are ``spawn``-ed,
+each with ``cpu_count // workers`` BLAS threads unless the thread variables
+are set; results do not depend on the executor.  Dask needs the ``cluster``
+extra, Parquet the ``parquet`` extra.
 
 Command line (:mod:`skfem_sheet.cli.sweep`)::
 
