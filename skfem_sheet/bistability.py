@@ -1015,7 +1015,7 @@ class FoldLengths:
         >>> f = FoldLengths(Sheet(length=1.3, curvature=2.5), 0.1, (0.6, 2.4), None, None,
         ...                 Branch(()), Branch(()), 0.1)
         >>> f.fold_text("standout")
-        'none in range (the curvature-dominated branch held to L/a = 2.4)'
+        'none in range (the branch followed from L/a = 0.6 held to L/a = 2.4)'
         """
         fold = self.standout if kind == "standout" else self.popup
         branch = self.increasing if kind == "standout" else self.decreasing
@@ -1034,8 +1034,10 @@ class FoldLengths:
                     f"started (widen the lengths)")
         if branch.reason:
             return f"not found: the {name} branch was lost without a fold ({branch.reason})"
-        end = hi if kind == "standout" else lo
-        return f"none in range (the {name} branch held to L/a = {end:g})"
+        start, end = (lo, hi) if kind == "standout" else (hi, lo)
+        # the branch is named for the state it starts from; with no fold the
+        # states along it may change names, so say where it was followed
+        return f"none in range (the branch followed from L/a = {start:g} held to L/a = {end:g})"
 
     def lines(self) -> list:
         """The answer in words, a line each (what ``bistability`` prints)."""

@@ -221,7 +221,7 @@ def test_bistability_says_what_it_is_about(monkeypatch, capsys, tmp_path):
     assert main(["bistability", "--curvature", "0.5", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "is not bistable for any L/a in [0.6, 2.4]" in out
-    assert "none in range (the curvature-dominated branch held to L/a = 2.4)" in out
+    assert "none in range (the branch followed from L/a = 0.6 held to L/a = 2.4)" in out
     np.testing.assert_equal(seen["lengths"], (0.6, 2.4))
 
 
