@@ -221,7 +221,7 @@ class _SheetNewton(Problem):
         below ``utol`` and at most half the last one, the next iteration
         takes it as it is (a chord step), instead of factorising the tangent
         at ``w``: the rule of
-        :func:`skfem_sheet.bistability._chord_linearization` (the record:
+        :func:`skfem_sheet.bistability.follow._chord_linearization` (the record:
         ``benchmarks/results/speed/solve_sample_hmax0.03_chord.txt``)."""
         r = self.last[1]
         rn = float(np.linalg.norm(r[self.free]))

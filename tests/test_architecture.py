@@ -41,7 +41,7 @@ LAYERS = {
     "result.py": 11,          # Result, Result.to_record, StartRecord, SolveError
     "starts.py": 11,          # the start strategies (PathStart, CoarseStart)
     "solve.py": 11,           # solve: the facade
-    "bistability.py": 12,     # follow_length, fold_lengths, s_curve
+    "bistability/": 12,       # branches in L and a/R, fold lengths, the S-curve, fold_curve
     "foldcurve/": 12,         # fold curves in (L, b) and (L, a/R), the cusp (on the engine)
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
     "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections
@@ -321,7 +321,7 @@ def test_the_package_names_come_from_its_layer_or_below():
     ("studies/foldmap.py", "from . import sweep as s\ns._execute()\n", "private"),
     ("studies/foldmap.py", "from .sweep import _Job\n", "private"),
     ("cli/rom.py", "from ..reduced._common import as_sheet\n", "private"),
-    ("bistability.py", "import argparse\n", "argparse"),
+    ("bistability/lengths.py", "import argparse\n", "argparse"),
 ])
 def test_the_checker_finds_each_kind_of_violation(rel, code, rule):
     up, private = _violations_up(rel, code), _violations_private(rel, code)

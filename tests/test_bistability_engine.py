@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from skfem_sheet import Sheet
-from skfem_sheet.bistability import _chord_linearization, _tolerances
+from skfem_sheet.bistability.follow import _chord_linearization, _tolerances
 from skfem_sheet.engine import correct
 from skfem_sheet.engine.protocol import Counting
 from skfem_sheet.sheet_shape import SheetShapeProblem

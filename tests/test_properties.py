@@ -338,7 +338,8 @@ def test_reduced_models_on_valid_sheets_pass_their_checks(name, sheet):
 @pytest.fixture
 def no_heavy_work(monkeypatch):
     monkeypatch.setattr(importlib.import_module("skfem_sheet.solve"), "build_problem", _reached)
-    monkeypatch.setattr(importlib.import_module("skfem_sheet.bistability"), "SheetShapeProblem",
+    monkeypatch.setattr(importlib.import_module("skfem_sheet.bistability.follow"),
+                        "SheetShapeProblem",
                         _reached)
     monkeypatch.setattr(importlib.import_module("skfem_sheet.studies.sweep"), "execute", _reached)
     monkeypatch.setattr(importlib.import_module("skfem_sheet.reduced.elastica"), "solve_bvp", _reached)
