@@ -46,7 +46,7 @@ LAYERS = {
     "paths.py": 12,           # one equilibrium along a polyline in (L, b, a/R), its jumps
     "calibration.py": 12,     # located folds' sensitivities, calibration to measured deflections
     "states.py": 12,          # solve_both: both load paths, whether their states differ
-    "switch.py": 12,          # switching forces and barriers: the S-curve in the tip force
+    "switch/": 12,            # switching forces and barriers: the S-curve in the tip force
     "studies/": 13,           # runner, sweep, fold map
     "figures/": 14,           # one module per figure, cached tables
     "plot.py": 14,            # drawing a solved sheet
