@@ -30,7 +30,7 @@ LAYERS = {
     "assembly.py": 4,         # Assembler: sparsity pattern, buffers, its own threads
     "problem.py": 5,          # SheetProblem: residual, tangent, energy, with_length
     "build.py": 5,            # BuildChain: the meshes, spaces, assemblers a solve or study keeps
-    "linalg.py": 6,           # linear solvers, given a SaddlePointLayout
+    "linalg/": 6,             # linear solvers, given a SaddlePointLayout: one module a back-end
     "newton.py": 7,           # the sheet on the engine's Newton and pseudo-transient, Stats, timed
     "analyses/": 8,           # stability, observables, transfer between meshes, mid-surface,
                               # sensitivities of a solved state and of a fold
@@ -317,7 +317,7 @@ def test_the_package_names_come_from_its_layer_or_below():
 @pytest.mark.parametrize("rel, code, rule", [
     ("solve.py", "def f():\n    from .cli import main\n", "up"),          # deferred, still up
     ("params.py", "import skfem_sheet.studies.sweep\n", "up"),
-    ("linalg.py", "import importlib\nimportlib.import_module('skfem_sheet.cli')\n", "up"),
+    ("linalg/factory.py", "import importlib\nimportlib.import_module('skfem_sheet.cli')\n", "up"),
     ("studies/foldmap.py", "from . import sweep as s\ns._execute()\n", "private"),
     ("studies/foldmap.py", "from .sweep import _Job\n", "private"),
     ("cli/rom.py", "from ..reduced._common import as_sheet\n", "private"),

@@ -252,10 +252,10 @@ def test_mkl_is_located_without_a_directory_scan(monkeypatch):
     import os
 
     pytest.importorskip("pypardiso")
-    from skfem_sheet import linalg
+    from skfem_sheet.linalg import mkl
 
     monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
-    linalg._locate_mkl()
+    mkl.locate_mkl()
     path = os.environ.get("PYPARDISO_MKL_RT")
     if path is None:
         pytest.skip("MKL not installed from the mkl wheel here")
