@@ -26,7 +26,7 @@ class SCurve(Curve):
 
     Attributes
     ----------
-    points : tuple of BranchPoint
+    points : tuple of skfem_sheet.bistability.branch.BranchPoint
         In arclength order (the length goes up, back at ``L1*``, up again after ``L0*``).
     folds : tuple of float
         Lengths of the turning points (where dL/ds changes sign), in order:
