@@ -25,14 +25,14 @@ saddle-node scaling near ``L1*`` (and ``L0*``): ``F_down ~ L1* - L``,
 
 One idea a module: :mod:`~skfem_sheet.switch.curve` (:class:`CurvePoint`,
 :class:`ForceCurve`), :mod:`~skfem_sheet.switch.trace` (:func:`force_curve`),
-:mod:`~skfem_sheet.switch.analysis` (:func:`switching`, :class:`Switching`,
-:func:`si_scales`) and :mod:`~skfem_sheet.switch.force` (:func:`apply_tip_force`,
-the force-controlled solve).
+:mod:`~skfem_sheet.switch.analysis` (:func:`switching`, :class:`Switching`)
+and :mod:`~skfem_sheet.switch.force` (:func:`apply_tip_force`, the
+force-controlled solve).
 """
 from __future__ import annotations
 
 from ..params import SIScale
-from .analysis import Switching, si_scales, switching
+from .analysis import Switching, switching
 from .curve import CurvePoint, ForceCurve
 from .force import TipForceRamp, apply_tip_force
 from .trace import CURVE_HMAX, force_curve
@@ -42,4 +42,4 @@ from .trace import POLISH_UTOL as POLISH_UTOL
 from .trace import TOLERANCES as TOLERANCES
 
 __all__ = ["CURVE_HMAX", "CurvePoint", "ForceCurve", "SIScale", "Switching", "TipForceRamp",
-           "apply_tip_force", "force_curve", "si_scales", "switching"]
+           "apply_tip_force", "force_curve", "switching"]

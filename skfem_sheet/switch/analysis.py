@@ -3,7 +3,7 @@ curve on the mesh ``curve_hmax``, the folds, the saddle and the drooped state
 located again on ``hmax`` from the carried states (the curve traced on
 ``hmax`` itself where they do not converge); the switching forces and the
 barriers ``Pi(saddle) - Pi(aloft)``, ``Pi(saddle) - Pi(drooped)``, in SI
-where the sheet has its scales (:func:`si_scales`).
+where the sheet has its scales (``Sheet.si``).
 """
 from __future__ import annotations
 
@@ -23,26 +23,6 @@ from ..states import SAME_TOL
 from ..version import __version__
 from .curve import ForceCurve
 from .trace import CURVE_HMAX, FORCE_UNIT, Tracer, check_curve_args, force_curve
-
-
-# -----------------------------------------------------------------------------
-# SI units
-# -----------------------------------------------------------------------------
-def si_scales(sheet: Sheet):
-    """The SI scales a sheet was made with, or None (a dimensionless sheet).
-
-    The one place where the switching analysis reads them from a
-    :class:`~skfem_sheet.params.Sheet`: its ``si`` (the scales a sheet made
-    by :meth:`~skfem_sheet.params.Sheet.from_si` keeps: base width,
-    density, gravity), where it has them; without, :func:`switching` takes
-    them from its ``si`` argument.
-
-    Examples
-    --------
-    >>> si_scales(Sheet(length=1.3, curvature=2.5)) is None
-    True
-    """
-    return sheet.si
 
 
 # -----------------------------------------------------------------------------
@@ -291,7 +271,8 @@ def switching(sheet: Sheet, hmax: float = 0.03, *, curve_hmax: float | None = No
     max_points : int
         Most points per segment of the curve.
     si : SIScale, optional
-        The sheet's SI scales (default :func:`si_scales` of the sheet):
+        The sheet's SI scales (default ``sheet.si``, the scales of a sheet made
+        by :meth:`~skfem_sheet.params.Sheet.from_si`):
         the summary then holds newtons and joules too.
     progress : bool
         A progress bar on stderr (F and d of the curve's points).
@@ -321,7 +302,7 @@ def switching(sheet: Sheet, hmax: float = 0.03, *, curve_hmax: float | None = No
     trace_h = _curve_mesh(hmax, curve_hmax)
     max_force, _, _, max_points = check_curve_args(max_force, 0.01, 0.04, max_points)
     if si is None:
-        si = si_scales(sheet)
+        si = sheet.si
     elif not isinstance(si, SIScale):
         raise ParameterError(f"si must be a SIScale or None, got {type(si).__name__}")
     if chain is not None and not isinstance(chain, BuildChain):
